@@ -1,0 +1,1 @@
+"""The MicroPython application that flies the vehicle."""

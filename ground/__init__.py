@@ -1,0 +1,1 @@
+"""Ground station: MAVLink telemetry and commands over a serial radio or UDP."""

@@ -1,0 +1,1 @@
+"""Dynamics model, analyses and the software-in-the-loop twin (CPython, numpy)."""

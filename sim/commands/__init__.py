@@ -1,0 +1,1 @@
+"""Subcommands of ``roboray-sim``, one module a topic."""

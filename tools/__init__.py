@@ -1,0 +1,1 @@
+"""Developer tools: flashing, the MicroPython interpreter for tests, CLI plumbing."""

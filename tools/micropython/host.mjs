@@ -1,0 +1,267 @@
+// Host for the MicroPython WebAssembly port under Node.js.
+//
+// Two modes, chosen by the first argument:
+//
+//   node host.mjs exec <micropython.mjs> [heap_bytes]
+//       Line-delimited JSON on stdin/stdout, one request and one reply a line.
+//       The Python side (interpreter.py) is the only client. While code runs,
+//       MicroPython may call hostlink.request(text); that writes a
+//       {"op": "request"} line and blocks until the client answers with a
+//       {"op": "reply"} line, which is how the twin steps the dynamics in
+//       lockstep with the firmware.
+//
+//   node host.mjs repl <micropython.mjs> <fs_dir> [heap_bytes]
+//       Raw bytes: stdin is the board's USB serial input, stdout its output.
+//       Used behind a pseudo-terminal by the virtual board (virtual_board.py),
+//       which handles the port's quirks on the byte stream. The file system
+//       is loaded from fs_dir at start and written back after every input
+//       chunk, so it outlives a restart like a board's flash does.
+//
+// Everything is synchronous on purpose: MicroPython runs on this thread, so
+// reading stdin with fs.readSync is the only way to answer a request made
+// from inside a running Python program.
+
+import fs from "node:fs";
+import path from "node:path";
+import { pathToFileURL } from "node:url";
+
+const mode = process.argv[2];
+const mpPath = process.argv[3];
+const { loadMicroPython } = await import(pathToFileURL(mpPath).href);
+
+// ---------------------------------------------------------------- stdin, sync
+const inBuf = Buffer.alloc(65536);
+let pending = Buffer.alloc(0);
+
+function readChunk() {
+  for (;;) {
+    try {
+      const n = fs.readSync(0, inBuf, 0, inBuf.length, null);
+      return n === 0 ? null : Buffer.from(inBuf.subarray(0, n));
+    } catch (e) {
+      if (e.code === "EAGAIN") continue; // non-blocking pipe: spin until data
+      if (e.code === "EOF") return null;
+      throw e;
+    }
+  }
+}
+
+function readLine() {
+  for (;;) {
+    const nl = pending.indexOf(10);
+    if (nl >= 0) {
+      const line = pending.subarray(0, nl).toString("utf8");
+      pending = pending.subarray(nl + 1);
+      return line;
+    }
+    const chunk = readChunk();
+    if (chunk === null) return null;
+    pending = Buffer.concat([pending, chunk]);
+  }
+}
+
+function writeAll(buf) {
+  let off = 0;
+  while (off < buf.length) {
+    try {
+      off += fs.writeSync(1, buf, off, buf.length - off);
+    } catch (e) {
+      if (e.code !== "EAGAIN") throw e;
+    }
+  }
+}
+
+const send = (obj) => writeAll(Buffer.from(JSON.stringify(obj) + "\n", "utf8"));
+
+// ------------------------------------------------------------ exec protocol
+async function execMode() {
+  const heap = parseInt(process.argv[4] || "8388608", 10);
+  let out = [];
+  const mp = await loadMicroPython({
+    heapsize: heap,
+    linebuffer: false,
+    stdout: (b) => { for (const c of b) out.push(c); },
+    stderr: (b) => { for (const c of b) out.push(c); },
+  });
+  mp.registerJsModule("hostlink", {
+    request(text) {
+      send({ op: "request", data: String(text) });
+      for (;;) {
+        const line = readLine();
+        if (line === null) process.exit(0);
+        const msg = JSON.parse(line);
+        if (msg.op === "reply") return msg.data;
+      }
+    },
+  });
+  const takeOut = () => {
+    const s = Buffer.from(out).toString("utf8");
+    out = [];
+    return s;
+  };
+  mp.runPython("import sys\n__version = '%d.%d.%d' % sys.implementation.version[:3]");
+  send({ op: "ready", version: mp.globals.get("__version") });
+  for (;;) {
+    const line = readLine();
+    if (line === null) return;
+    const req = JSON.parse(line);
+    const reply = { op: "done", id: req.id, ok: true };
+    try {
+      switch (req.op) {
+        case "exec": {
+          const t0 = performance.now();
+          mp.runPython(req.code);
+          reply.us = (performance.now() - t0) * 1000;
+          break;
+        }
+        case "write": {
+          mp.FS.mkdirTree(path.posix.dirname(req.path));
+          mp.FS.writeFile(req.path, Buffer.from(req.b64, "base64"));
+          break;
+        }
+        case "read":
+          reply.b64 = Buffer.from(mp.FS.readFile(req.path)).toString("base64");
+          break;
+        case "global": {
+          const v = mp.globals.get(req.name);
+          reply.value = v === undefined ? null : v;
+          break;
+        }
+        default:
+          throw new Error("unknown op " + req.op);
+      }
+    } catch (e) {
+      reply.ok = false;
+      reply.error = e && e.message !== undefined ? String(e.message) : String(e);
+      reply.python = e && e.constructor && e.constructor.name === "PythonError";
+    }
+    reply.out = takeOut();
+    send(reply);
+  }
+}
+
+// --------------------------------------------------------------- REPL mode
+function loadTree(mp, hostDir, mpDir) {
+  for (const name of fs.readdirSync(hostDir)) {
+    const h = path.join(hostDir, name);
+    const m = path.posix.join(mpDir, name);
+    if (fs.statSync(h).isDirectory()) {
+      mp.FS.mkdirTree(m);
+      loadTree(mp, h, m);
+    } else {
+      mp.FS.writeFile(m, fs.readFileSync(h));
+    }
+  }
+}
+
+// Mirror the MicroPython file system onto fs_dir. A file is written to a
+// temporary name and renamed, so killing the virtual board mid-sync leaves
+// every host file whole, old or new.
+function syncTree(mp, mpDir, hostDir, seen, skip) {
+  for (const name of mp.FS.readdir(mpDir)) {
+    if (name === "." || name === ".." || (skip && skip.has(name))) continue;
+    const m = path.posix.join(mpDir, name);
+    const h = path.join(hostDir, name);
+    const st = mp.FS.stat(m);
+    seen.add(h);
+    if (mp.FS.isDir(st.mode)) {
+      fs.mkdirSync(h, { recursive: true });
+      syncTree(mp, m, h, seen, null);
+    } else {
+      const data = mp.FS.readFile(m);
+      let same = false;
+      try { same = Buffer.compare(fs.readFileSync(h), Buffer.from(data)) === 0; } catch (e) { same = false; }
+      if (!same) {
+        fs.writeFileSync(h + ".~sync", data);
+        fs.renameSync(h + ".~sync", h);
+      }
+    }
+  }
+}
+
+function pruneTree(hostDir, seen) {
+  for (const name of fs.readdirSync(hostDir)) {
+    const h = path.join(hostDir, name);
+    if (fs.statSync(h).isDirectory()) {
+      pruneTree(h, seen);
+      if (!seen.has(h)) fs.rmSync(h, { recursive: true, force: true });
+    } else if (!seen.has(h)) {
+      fs.rmSync(h, { force: true });
+    }
+  }
+}
+
+async function replMode() {
+  const fsDir = process.argv[4];
+  const heap = parseInt(process.argv[5] || "8388608", 10);
+  // The board's flash is the root, as on rp2; Emscripten's own folders are
+  // not part of it and are never synced.
+  const ROOT = "/";
+  const SYSTEM = new Set(["tmp", "home", "dev", "proc"]);
+  const mp = await loadMicroPython({
+    heapsize: heap,
+    linebuffer: false,
+    stdout: (b) => writeAll(Buffer.from(b)),
+    stderr: (b) => writeAll(Buffer.from(b)),
+  });
+  const M = mp._module;
+  loadTree(mp, fsDir, ROOT);
+
+  const sync = () => {
+    const seen = new Set();
+    syncTree(mp, ROOT, fsDir, seen, SYSTEM);
+    pruneTree(fsDir, seen);
+  };
+
+  // Boot the way a board does: cwd on the flash, boot.py, then main.py
+  // unless the REPL is raw (a host tool is driving it).
+  const boot = (rawMode) => {
+    mp.runPython(
+      "import os, sys\nos.chdir('" + ROOT + "')\n" +
+      "sys.path.clear()\nsys.path.extend(['', '.frozen', '/lib'])\n"
+    );
+    for (const script of rawMode ? ["boot.py"] : ["boot.py", "main.py"]) {
+      let exists = true;
+      try { mp.FS.stat(path.posix.join(ROOT, script)); } catch (e) { exists = false; }
+      if (!exists) continue;
+      try {
+        mp.runPython("exec(open('" + script + "').read(), {'__name__': '__main__'})");
+      } catch (e) {
+        writeAll(Buffer.from(String(e.message).replace(/\r?\n/g, "\r\n"), "utf8"));
+      }
+    }
+  };
+
+  let raw = false;
+  boot(false);
+  mp.replInit();
+  for (;;) {
+    const chunk = readChunk();
+    if (chunk === null) break;
+    for (const c of chunk) {
+      if (c === 1) raw = true;       // Ctrl-A: raw REPL
+      else if (c === 2) raw = false; // Ctrl-B: friendly REPL
+      const r = mp.replProcessChar(c);
+      if (r & 256) {
+        // PYEXEC_FORCED_EXIT: Ctrl-D asked for a soft reset, which this port
+        // leaves to its host. Re-initialise the VM on the same file system.
+        sync();
+        writeAll(Buffer.from("MPY: soft reboot\r\n"));
+        M.ccall("mp_js_init", "null", ["number", "number"], [2048, heap]);
+        M.ccall("proxy_c_init", "null", [], []);
+        boot(raw);
+        mp.replInit();
+      }
+    }
+    sync();
+  }
+  sync();
+}
+
+if (mode === "exec") await execMode();
+else if (mode === "repl") await replMode();
+else {
+  process.stderr.write("usage: host.mjs exec|repl <micropython.mjs> ...\n");
+  process.exit(2);
+}
+process.exit(0);
