@@ -1,0 +1,118 @@
+"""Framing outgoing MAVLink messages in one preallocated buffer.
+
+The caller packs the payload in place, then ``finish`` adds the header, the
+checksum and, when a key is set, the signature::
+
+    struct.pack_into(messages.ATTITUDE_FMT, w.buf, w.payload, t_ms, roll, ...)
+    n = w.finish(messages.MSG_ATTITUDE)
+    transport.write(w.view(n))
+
+Nothing but the returned view is allocated (and signing's hash). MAVLink 2
+frames drop the payload's trailing zero bytes (at least one byte stays), as
+the specification and pymavlink do; MAVLink 1 frames carry the base fields
+only and are never signed.
+"""
+
+from roboray.shared.mavlink import crc
+from roboray.shared.mavlink.messages import TABLE
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+STX_V2 = const(0xFD)
+STX_V1 = const(0xFE)
+HEADER_V2 = const(10)
+HEADER_V1 = const(6)
+IFLAG_SIGNED = const(0x01)
+#: Longest frame: MAVLink 2 header, 255-byte payload, CRC, signature.
+FRAME_MAX = const(280)
+
+
+class Writer:
+    """Frames payloads for one (system, component) on one link.
+
+    Parameters
+    ----------
+    sysid, compid:
+        Our MAVLink system and component ids.
+    signing:
+        A ``Signing`` object; frames are signed whenever it has a key.
+    mavlink1:
+        Emit MAVLink 1 frames (payload at offset 6) instead of MAVLink 2.
+    """
+
+    def __init__(self, sysid, compid, signing=None, mavlink1=False):
+        for name, v in (("sysid", sysid), ("compid", compid)):
+            if not 0 <= v <= 255:
+                raise ValueError("%s must be 0..255, got %r" % (name, v))
+        self.buf = bytearray(FRAME_MAX)
+        self._mv = memoryview(self.buf)
+        self.sysid = sysid
+        self.compid = compid
+        self.signing = signing
+        self.mavlink1 = mavlink1
+        #: Where ``struct.pack_into`` puts the payload.
+        self.payload = HEADER_V1 if mavlink1 else HEADER_V2
+        self.seq = 0
+        self.sent = 0
+
+    def clear(self, length):
+        """Zero ``length`` payload bytes (before packing a message partly)."""
+        b = self.buf
+        p = self.payload
+        for i in range(p, p + length):
+            b[i] = 0
+
+    def finish(self, msgid, seq=-1):
+        """Frame the payload packed at ``self.payload``; returns the frame length.
+
+        ``seq`` overrides the sequence number (tests); by default it counts up.
+        """
+        entry = TABLE[msgid]
+        b = self.buf
+        if seq < 0:
+            seq = self.seq
+            self.seq = (seq + 1) & 0xFF
+        if self.mavlink1:
+            plen = entry[2]
+            b[0] = STX_V1
+            b[1] = plen
+            b[2] = seq
+            b[3] = self.sysid
+            b[4] = self.compid
+            b[5] = msgid
+            end = HEADER_V1 + plen
+            signed = False
+        else:
+            plen = entry[3]
+            while plen > 1 and b[HEADER_V2 + plen - 1] == 0:
+                plen -= 1
+            signing = self.signing
+            signed = signing is not None and signing.key is not None
+            b[0] = STX_V2
+            b[1] = plen
+            b[2] = IFLAG_SIGNED if signed else 0
+            b[3] = 0
+            b[4] = seq
+            b[5] = self.sysid
+            b[6] = self.compid
+            b[7] = msgid & 0xFF
+            b[8] = (msgid >> 8) & 0xFF
+            b[9] = msgid >> 16
+            end = HEADER_V2 + plen
+        c = crc.accumulate(crc.CRC_INIT, b, 1, end)
+        c = crc.accumulate_byte(c, entry[1])
+        b[end] = c & 0xFF
+        b[end + 1] = c >> 8
+        n = end + 2
+        if signed:
+            n = self.signing.sign(b, n)  # type: ignore[union-attr]
+        self.sent += 1
+        return n
+
+    def view(self, n):
+        """The first ``n`` bytes of the buffer, without copying them."""
+        return self._mv[0:n]

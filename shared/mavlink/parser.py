@@ -1,0 +1,275 @@
+"""Parsing MAVLink 1 and 2 frames from a byte stream, one frame buffer.
+
+``Parser.feed(data, start, end)`` consumes bytes until a frame is complete
+and valid, and returns the index of the first byte it did not consume; then
+``ready`` is True and the frame's fields are attributes (``msgid``,
+``sysid``, ``payload`` zero-filled to the message's full length, ...). The
+caller handles the frame and calls ``feed`` again from that index::
+
+    i = 0
+    while i < n:
+        i = parser.feed(rx, i, n)
+        if parser.ready:
+            handle(parser)
+
+Robustness: a candidate frame (a start byte and what follows it) is
+checked as early as possible: unknown incompat flags, unknown message ids
+and impossible lengths are rejected on the header, a bad checksum on the
+whole frame. A rejected candidate is never skipped by its claimed length:
+the search restarts at its second byte, within the bytes already buffered,
+so a false start byte in garbage cannot swallow the valid frames behind it.
+Unknown message ids count in ``unknown`` (they cannot be checked without
+their CRC_EXTRA, so they are resynchronised over, not trusted).
+
+Counters: ``frames`` (valid), ``crc_errors``, ``unknown``, ``bad_header``,
+``lost`` (gaps in sequence numbers per sender), ``garbage`` (bytes outside
+any candidate), ``bad_signature`` (signed frames that failed verification).
+
+Feeding a ``memoryview`` costs one small view object per copy on the board
+(16 bytes); ``bytes`` cost a copy of the slice.
+"""
+
+from array import array
+
+from roboray.shared.mavlink import crc
+from roboray.shared.mavlink.messages import TABLE
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+_STX_V2 = const(0xFD)
+_STX_V1 = const(0xFE)
+_HEADER_V2 = const(10)
+_HEADER_V1 = const(6)
+_SIGNATURE_LEN = const(13)
+_FRAME_MAX = const(280)
+_SOURCES = const(8)
+
+
+class Parser:
+    """MAVLink frame parser.
+
+    Parameters
+    ----------
+    signing:
+        A ``Signing`` object; signed frames are verified when it has a key
+        (``sig_ok``). The policy, what to do with unsigned frames, is the
+        caller's.
+    """
+
+    def __init__(self, signing=None):
+        self.buf = bytearray(_FRAME_MAX)
+        self._mv = memoryview(self.buf)
+        self.payload = bytearray(256)
+        self.signing = signing
+        self._n = 0        # bytes held in buf, from a start byte
+        self._need = 1     # bytes needed before the next decision
+        self._flen = 0     # length of the candidate frame, 0 until its header is read
+        self._drop = 0     # length of the delivered frame, removed on the next call
+        self.ready = False
+        # the last valid frame
+        self.msgid = -1
+        self.entry = None   # its TABLE entry
+        self.sysid = 0
+        self.compid = 0
+        self.seq = 0
+        self.length = 0     # payload bytes on the wire
+        self.frame_len = 0  # whole frame, as in buf[:frame_len]
+        self.mavlink1 = False
+        self.signed = False
+        self.sig_ok = False
+        # counters
+        self.frames = 0
+        self.crc_errors = 0
+        self.unknown = 0
+        self.bad_header = 0
+        self.lost = 0
+        self.garbage = 0
+        self.bad_signature = 0
+        self._src = array("l", [-1] * _SOURCES)   # sysid << 8 | compid
+        self._last = array("B", bytearray(_SOURCES))
+        self._next_src = 0
+
+    # ------------------------------------------------------------- feeding
+    def feed(self, data, start=0, end=-1):
+        """Consume ``data[start:end]`` until a frame is ready; the index reached."""
+        if end < 0:
+            end = len(data)
+        if self._drop:
+            self._remove(self._drop)
+        self.ready = False
+        if self._n and self._n >= self._need and self._run():
+            return start
+        buf = self.buf
+        i = start
+        while i < end:
+            n = self._n
+            if n == 0:
+                b = data[i]
+                i += 1
+                if b == _STX_V2:
+                    self._need = _HEADER_V2
+                elif b == _STX_V1:
+                    self._need = _HEADER_V1
+                else:
+                    self.garbage += 1
+                    continue
+                buf[0] = b
+                self._n = 1
+                continue
+            k = self._need - n
+            if k > end - i:
+                k = end - i
+            buf[n:n + k] = data[i:i + k]
+            i += k
+            self._n = n + k
+            if self._n >= self._need and self._run():
+                return i
+        return i
+
+    def parse_byte(self, b):
+        """Feed one byte; True when a frame is ready."""
+        if self._drop:
+            self._remove(self._drop)
+        self.ready = False
+        n = self._n
+        if n == 0:
+            if b == _STX_V2:
+                self._need = _HEADER_V2
+            elif b == _STX_V1:
+                self._need = _HEADER_V1
+            else:
+                self.garbage += 1
+                return False
+        self.buf[n] = b
+        self._n = n + 1
+        if self._n >= self._need:
+            return self._run()
+        return False
+
+    # ------------------------------------------------------------ deciding
+    def _remove(self, k):
+        """Drop the first ``k`` held bytes, keep the rest from its next start byte."""
+        self._drop = 0
+        self._flen = 0
+        n = self._n
+        buf = self.buf
+        j = k
+        while j < n and buf[j] != _STX_V2 and buf[j] != _STX_V1:
+            j += 1
+        self.garbage += j - k
+        if j >= n:
+            self._n = 0
+            self._need = 1
+            return
+        m = n - j
+        for i in range(m):  # rare (after a rejected candidate): a plain loop allocates nothing
+            buf[i] = buf[j + i]
+        self._n = m
+        self._need = _HEADER_V2 if buf[0] == _STX_V2 else _HEADER_V1
+
+    def _reject(self):
+        # restart the search at the candidate's second byte
+        self.garbage += 1
+        self._remove(1)
+
+    def _run(self):
+        """Decide on the held bytes while there are enough; True on a frame."""
+        buf = self.buf
+        while self._n and self._n >= self._need:
+            if self._flen == 0:
+                if buf[0] == _STX_V2:
+                    hdr = _HEADER_V2
+                    flags = buf[2]
+                    if flags & 0xFE:
+                        self.bad_header += 1
+                        self._reject()
+                        continue
+                    msgid = buf[7] | (buf[8] << 8) | (buf[9] << 16)
+                else:
+                    hdr = _HEADER_V1
+                    flags = 0
+                    msgid = buf[5]
+                entry = TABLE.get(msgid)
+                if entry is None:
+                    self.unknown += 1
+                    self._reject()
+                    continue
+                plen = buf[1]
+                if (plen > entry[3]) if hdr == _HEADER_V2 else (plen != entry[2]):
+                    self.bad_header += 1
+                    self._reject()
+                    continue
+                self._flen = hdr + plen + 2 + (_SIGNATURE_LEN if flags & 1 else 0)
+                self._need = self._flen
+                continue
+            # the whole candidate is here
+            v2 = buf[0] == _STX_V2
+            hdr = _HEADER_V2 if v2 else _HEADER_V1
+            msgid = (buf[7] | (buf[8] << 8) | (buf[9] << 16)) if v2 else buf[5]
+            entry = TABLE[msgid]
+            plen = buf[1]
+            end = hdr + plen
+            c = crc.accumulate(crc.CRC_INIT, buf, 1, end)
+            c = crc.accumulate_byte(c, entry[1])
+            if buf[end] != (c & 0xFF) or buf[end + 1] != (c >> 8):
+                self.crc_errors += 1
+                self._reject()
+                continue
+            self._deliver(v2, hdr, msgid, entry, plen)
+            return True
+        return False
+
+    def _deliver(self, v2, hdr, msgid, entry, plen):
+        buf = self.buf
+        flen = self._flen
+        self.msgid = msgid
+        self.entry = entry
+        self.mavlink1 = not v2
+        if v2:
+            self.seq = buf[4]
+            self.sysid = buf[5]
+            self.compid = buf[6]
+            self.signed = (buf[2] & 1) == 1
+        else:
+            self.seq = buf[2]
+            self.sysid = buf[3]
+            self.compid = buf[4]
+            self.signed = False
+        self.length = plen
+        self.frame_len = flen
+        p = self.payload
+        p[0:plen] = self._mv[hdr:hdr + plen]
+        for i in range(plen, entry[3]):  # MAVLink 2 truncation: the rest is zeros
+            p[i] = 0
+        self.sig_ok = False
+        if self.signed:
+            s = self.signing
+            if s is not None and s.key is not None:
+                self.sig_ok = s.verify(buf, flen, self.sysid, self.compid)
+                if not self.sig_ok:
+                    self.bad_signature += 1
+        self._count_sequence()
+        self.frames += 1
+        self.ready = True
+        self._drop = flen
+
+    def _count_sequence(self):
+        key = (self.sysid << 8) | self.compid
+        src = self._src
+        for i in range(_SOURCES):
+            if src[i] == key:
+                self.lost += (self.seq - self._last[i] - 1) & 0xFF
+                self._last[i] = self.seq
+                return
+        i = self._next_src
+        self._next_src = (i + 1) % _SOURCES
+        src[i] = key
+        self._last[i] = self.seq
+
+    def frame(self):
+        """The last valid frame's bytes, as a view (host side: ``bytes(...)``)."""
+        return self._mv[0:self.frame_len]

@@ -1,0 +1,184 @@
+"""MAVLink 2 message signing (mavlink.io, "Message Signing").
+
+A signed frame carries 13 more bytes after its CRC: the link id (1 byte), a
+48-bit timestamp in 10 us units since 2015-01-01 00:00 UTC (6 bytes,
+little-endian) and the first 6 bytes of
+``SHA-256(secret_key + header + payload + crc + link_id + timestamp)``.
+The 32-byte secret key is the SHA-256 of a passphrase, as MAVProxy's
+``signing setup`` derives it (``key_from_passphrase``).
+
+A frame is accepted when its signature matches and its timestamp is newer
+than the last one accepted from the same (link id, system, component)
+stream; an older or equal one is a replay. A stream never seen before is
+refused when it is more than a minute older than our own clock (pymavlink's
+rule), so an old recording cannot open a new stream.
+
+Timestamps exceed the boards' 31-bit small integers, so they are kept as two
+24-bit halves (``hi``, ``lo``): comparing and incrementing them never makes
+a big integer on the heap.
+"""
+
+import hashlib
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+SIGNATURE_LEN = const(13)
+_HALF = const(0x1000000)       # 2**24
+_MASK = const(0xFFFFFF)
+_NEW_STREAM_SLACK = const(6000000)  # 60 s in 10 us units, pymavlink's window
+_UNIX_2015 = 1420070400        # 2015-01-01 00:00 UTC in unix seconds
+
+
+def key_from_passphrase(passphrase):
+    """The 32-byte key MAVProxy's ``signing setup PASSPHRASE`` uses."""
+    if isinstance(passphrase, str):
+        passphrase = passphrase.encode()
+    return hashlib.sha256(passphrase).digest()
+
+
+class Signing:
+    """Signs outgoing frames and checks incoming ones.
+
+    Parameters
+    ----------
+    key:
+        32-byte secret key, or None (signing off).
+    link_id:
+        Our link id, written into every frame we sign.
+    streams:
+        How many (link, system, component) streams the replay table holds;
+        the least recently seen is replaced when a new one arrives.
+    """
+
+    def __init__(self, key=None, link_id=0, streams=8):
+        if streams < 1:
+            raise ValueError("streams must be >= 1, got %r" % (streams,))
+        self.key = None
+        self.link_id = link_id & 0xFF
+        self.hi = 0  # our timestamp, upper 24 bits
+        self.lo = 0  # lower 24 bits
+        self._keys = array("l", [-1] * streams)  # link<<16 | sys<<8 | comp
+        self._hi = array("l", [0] * streams)
+        self._lo = array("l", [0] * streams)
+        self._age = array("l", [0] * streams)
+        self._tick = 0
+        self.good = 0
+        self.bad = 0      # signature mismatch
+        self.replays = 0  # timestamp not newer than the stream's last
+        self._sig = bytearray(6)
+        self.set_key(key)
+
+    @property
+    def enabled(self):
+        return self.key is not None
+
+    def set_key(self, key):
+        """Set or clear (None) the secret key; clears the replay table."""
+        if key is not None and len(key) != 32:
+            raise ValueError("signing key must be 32 bytes, got %d" % len(key))
+        self.key = None if key is None else bytes(key)
+        for i in range(len(self._keys)):
+            self._keys[i] = -1
+
+    def set_unix_time(self, seconds):
+        """Move our timestamp up to a wall-clock time (never back)."""
+        ts = int((seconds - _UNIX_2015) * 100000)
+        if ts <= 0:
+            return
+        self._advance_to(ts // _HALF, ts & _MASK)
+
+    def timestamp(self):
+        """Our 48-bit timestamp as one integer (host side, tests)."""
+        return self.hi * _HALF + self.lo
+
+    def _advance_to(self, hi, lo):
+        if hi > self.hi or (hi == self.hi and lo > self.lo):
+            self.hi = hi
+            self.lo = lo
+
+    def _digest(self, buf, n):
+        h = hashlib.sha256(self.key)
+        h.update(memoryview(buf)[0:n])
+        d = h.digest()
+        s = self._sig
+        for i in range(6):
+            s[i] = d[i]
+        return s
+
+    def sign(self, buf, n):
+        """Append link id, timestamp and signature to the frame ``buf[:n]``
+        (whose incompat flags already say signed); returns the new length."""
+        lo = self.lo + 1  # a fresh timestamp for every frame
+        hi = self.hi
+        if lo > _MASK:
+            lo = 0
+            hi += 1
+        self.hi = hi
+        self.lo = lo
+        buf[n] = self.link_id
+        buf[n + 1] = lo & 0xFF
+        buf[n + 2] = (lo >> 8) & 0xFF
+        buf[n + 3] = lo >> 16
+        buf[n + 4] = hi & 0xFF
+        buf[n + 5] = (hi >> 8) & 0xFF
+        buf[n + 6] = hi >> 16
+        s = self._digest(buf, n + 7)
+        for i in range(6):
+            buf[n + 7 + i] = s[i]
+        return n + SIGNATURE_LEN
+
+    def verify(self, buf, flen, sysid, compid):
+        """True when the signed frame ``buf[:flen]`` is authentic and new.
+
+        Counts ``good``, ``bad`` and ``replays``; only an authentic frame moves
+        the stream's last timestamp and our own clock.
+        """
+        if self.key is None:
+            return False
+        base = flen - SIGNATURE_LEN
+        s = self._digest(buf, flen - 6)
+        for i in range(6):
+            if s[i] != buf[flen - 6 + i]:
+                self.bad += 1
+                return False
+        link = buf[base]
+        lo = buf[base + 1] | (buf[base + 2] << 8) | (buf[base + 3] << 16)
+        hi = buf[base + 4] | (buf[base + 5] << 8) | (buf[base + 6] << 16)
+        key = (link << 16) | (sysid << 8) | compid
+        keys = self._keys
+        slot = -1
+        for i in range(len(keys)):
+            if keys[i] == key:
+                slot = i
+                break
+        if slot >= 0:
+            if hi < self._hi[slot] or (hi == self._hi[slot] and lo <= self._lo[slot]):
+                self.replays += 1
+                return False
+        else:
+            # A new stream must not be much older than our clock.
+            ohi = self.hi
+            olo = self.lo - _NEW_STREAM_SLACK
+            while olo < 0:
+                olo += _HALF
+                ohi -= 1
+            if hi < ohi or (hi == ohi and lo < olo):
+                self.replays += 1
+                return False
+            slot = 0
+            for i in range(1, len(keys)):
+                if self._age[i] < self._age[slot]:
+                    slot = i
+            keys[slot] = key
+        self._hi[slot] = hi
+        self._lo[slot] = lo
+        self._tick += 1
+        self._age[slot] = self._tick
+        self._advance_to(hi, lo)
+        self.good += 1
+        return True

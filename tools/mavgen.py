@@ -1,0 +1,248 @@
+"""Generate the board's MAVLink message table from pymavlink's ``common.xml``.
+
+The board has no XML parser and no room for pymavlink's 17,000-line dialect,
+so this tool writes ``shared/mavlink/messages.py``: for each message the
+vehicle uses, its id, CRC_EXTRA, wire lengths, ``struct`` format (fields in
+wire order) and field names, plus the enum values the endpoint needs. The
+generated file is committed; ``tests/test_mavlink_codec.py`` regenerates it and
+compares, so a pymavlink upgrade that changes a message cannot slip by.
+
+Wire order and CRC_EXTRA follow the MAVLink specification
+(mavlink.io, "Serialization" and "CRC_EXTRA calculation"): base fields sorted
+by element size, largest first, stable; extension fields appended in XML
+order; CRC_EXTRA is the X.25 CRC of the message name and each base field's
+type, name and array length, folded to one byte.
+
+Run: ``python -m roboray.tools.mavgen [--check] [--out PATH]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Optional, Sequence
+
+#: Messages the vehicle sends or understands (issue 8), in id order after generation.
+MESSAGES = (
+    "HEARTBEAT", "SYS_STATUS", "SYSTEM_TIME", "ATTITUDE", "ATTITUDE_QUATERNION",
+    "LOCAL_POSITION_NED", "SCALED_PRESSURE", "SCALED_IMU", "SERVO_OUTPUT_RAW",
+    "BATTERY_STATUS", "STATUSTEXT", "NAMED_VALUE_FLOAT", "PARAM_REQUEST_LIST",
+    "PARAM_REQUEST_READ", "PARAM_SET", "PARAM_VALUE", "COMMAND_LONG", "COMMAND_ACK",
+    "SET_POSITION_TARGET_LOCAL_NED", "POSITION_TARGET_LOCAL_NED", "ATT_POS_MOCAP",
+    "TIMESYNC", "RADIO_STATUS",
+)
+
+#: Enum entries the endpoint and the ground station use, by enum name.
+ENUMS = {
+    "MAV_TYPE": ("MAV_TYPE_SUBMARINE", "MAV_TYPE_GCS"),
+    "MAV_AUTOPILOT": ("MAV_AUTOPILOT_GENERIC", "MAV_AUTOPILOT_INVALID"),
+    "MAV_COMPONENT": ("MAV_COMP_ID_AUTOPILOT1",),
+    "MAV_MODE_FLAG": None,
+    "MAV_STATE": None,
+    "MAV_RESULT": None,
+    "MAV_PARAM_TYPE": None,
+    "MAV_SEVERITY": None,
+    "MAV_FRAME": ("MAV_FRAME_LOCAL_NED",),
+    "MAV_CMD": (
+        "MAV_CMD_COMPONENT_ARM_DISARM", "MAV_CMD_DO_SET_MODE", "MAV_CMD_DO_REPOSITION",
+        "MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN", "MAV_CMD_SET_MESSAGE_INTERVAL",
+        "MAV_CMD_REQUEST_MESSAGE",
+    ),
+}
+
+_TYPES = {  # MAVLink type -> (struct code, size in bytes)
+    "char": ("s", 1), "uint8_t": ("B", 1), "int8_t": ("b", 1),
+    "uint16_t": ("H", 2), "int16_t": ("h", 2), "uint32_t": ("I", 4), "int32_t": ("i", 4),
+    "uint64_t": ("Q", 8), "int64_t": ("q", 8), "float": ("f", 4), "double": ("d", 8),
+}
+
+
+def default_xml() -> Path:
+    """``common.xml`` inside the installed pymavlink (message_definitions or dialects/v20)."""
+    import pymavlink
+
+    root = Path(pymavlink.__file__).parent
+    for rel in ("message_definitions/v1.0/common.xml", "dialects/v20/common.xml"):
+        if (root / rel).is_file():
+            return root / rel
+    raise FileNotFoundError("no common.xml under %s" % root)
+
+
+def default_out() -> Path:
+    return Path(__file__).resolve().parent.parent / "shared" / "mavlink" / "messages.py"
+
+
+def x25(data: bytes, crc: int = 0xFFFF) -> int:
+    for b in data:
+        tmp = (b ^ crc) & 0xFF
+        tmp = (tmp ^ (tmp << 4)) & 0xFF
+        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
+    return crc
+
+
+class Field:
+    def __init__(self, name: str, xml_type: str, extension: bool) -> None:
+        self.name = name
+        self.extension = extension
+        self.array = 0
+        base = xml_type
+        if "[" in xml_type:
+            base, n = xml_type.rstrip("]").split("[")
+            self.array = int(n)
+        if base == "uint8_t_mavlink_version":  # HEARTBEAT.mavlink_version, a uint8_t on the wire
+            base = "uint8_t"
+        if base not in _TYPES:
+            raise ValueError("field %s: unknown MAVLink type %r" % (name, xml_type))
+        self.type = base
+        self.code, self.size = _TYPES[base]
+
+    @property
+    def fmt(self) -> str:
+        if self.type == "char":
+            return "%ds" % max(self.array, 1)
+        return ("%d%s" % (self.array, self.code)) if self.array else self.code
+
+    @property
+    def wire_len(self) -> int:
+        return self.size * max(self.array, 1)
+
+
+class Message:
+    def __init__(self, node: ET.Element) -> None:
+        self.name = node.get("name", "")
+        self.id = int(node.get("id", "-1"))
+        fields = []
+        extension = False
+        for child in node:
+            if child.tag == "extensions":
+                extension = True
+            elif child.tag == "field":
+                fields.append(Field(child.get("name", ""), child.get("type", ""), extension))
+        base = [f for f in fields if not f.extension]
+        # Stable sort by element size: the wire order (mavlink.io serialization).
+        self.wire = sorted(base, key=lambda f: f.size, reverse=True) + [f for f in fields if f.extension]
+        self.min_len = sum(f.wire_len for f in base)
+        self.max_len = sum(f.wire_len for f in self.wire)
+        crc = x25((self.name + " ").encode())
+        for f in sorted(base, key=lambda f: f.size, reverse=True):
+            crc = x25((f.type + " ").encode(), crc)
+            crc = x25((f.name + " ").encode(), crc)
+            if f.array:
+                crc = x25(bytes([f.array]), crc)
+        self.crc_extra = (crc & 0xFF) ^ (crc >> 8)
+
+    @property
+    def fmt(self) -> str:
+        return "<" + "".join(f.fmt for f in self.wire)
+
+
+def load(path: Path, seen: Optional[set] = None) -> tuple[dict, dict]:
+    """Messages and enums of ``path`` and the files it includes."""
+    seen = set() if seen is None else seen
+    path = path.resolve()
+    if path in seen:
+        return {}, {}
+    seen.add(path)
+    root = ET.parse(path).getroot()
+    messages: dict = {}
+    enums: dict = {}
+    for inc in root.findall("include"):
+        m, e = load(path.parent / (inc.text or "").strip(), seen)
+        messages.update(m)
+        for k, v in e.items():
+            enums.setdefault(k, {}).update(v)
+    for node in root.iter("message"):
+        msg = Message(node)
+        messages[msg.name] = msg
+    for node in root.iter("enum"):
+        entries = enums.setdefault(node.get("name", ""), {})
+        value = -1
+        for entry in node.findall("entry"):
+            v = entry.get("value")
+            value = int(v, 0) if v is not None else value + 1
+            entries[entry.get("name", "")] = value
+    return messages, enums
+
+
+def generate(xml: Path) -> str:
+    messages, enums = load(xml)
+    missing = [n for n in MESSAGES if n not in messages]
+    if missing:
+        raise ValueError("%s lacks messages %s" % (xml.name, ", ".join(missing)))
+    chosen = sorted((messages[n] for n in MESSAGES), key=lambda m: m.id)
+    out = [
+        '"""MAVLink message table: GENERATED by tools/mavgen.py from pymavlink\'s',
+        "common.xml (%s). Do not edit; regenerate with" % xml.name,
+        "``python -m roboray.tools.mavgen``.",
+        "",
+        "``TABLE[msgid]`` is ``(name, crc_extra, min_len, max_len, fmt, fields, arrays)``:",
+        "``min_len`` is the MAVLink 1 payload (base fields), ``max_len`` MAVLink 2's",
+        "(with extensions); ``fmt`` unpacks a ``max_len`` payload in wire order into",
+        "the values of ``fields`` (an array of N numbers is N values, a char array",
+        "one bytes value); ``arrays[i]`` is field i's array length, 0 for a scalar or",
+        "a char array. ``<NAME>_FMT`` and ``<NAME>_LEN`` serve the encoders.",
+        '"""',
+        "",
+        "try:",
+        "    from micropython import const",
+        "except ImportError:  # CPython",
+        "    def const(x):",
+        "        return x",
+        "",
+        "# Indices into a TABLE entry",
+        "NAME = const(0)",
+        "CRC_EXTRA = const(1)",
+        "MIN_LEN = const(2)",
+        "MAX_LEN = const(3)",
+        "FMT = const(4)",
+        "FIELDS = const(5)",
+        "ARRAYS = const(6)",
+        "",
+        "# Message ids",
+    ]
+    for m in chosen:
+        out.append("MSG_%s = const(%d)" % (m.name, m.id))
+    out += ["", "# Wire formats (little-endian, wire order) and full payload lengths"]
+    for m in chosen:
+        out.append('%s_FMT = "%s"' % (m.name, m.fmt))
+        out.append("%s_LEN = const(%d)" % (m.name, m.max_len))
+    out += ["", "TABLE = {"]
+    for m in chosen:
+        names = ", ".join('"%s"' % f.name for f in m.wire)
+        arrays = ", ".join(str(f.array if f.type != "char" else 0) for f in m.wire)
+        out.append('    %d: ("%s", %d, %d, %d, %s_FMT, (%s,), (%s,)),' % (
+            m.id, m.name, m.crc_extra, m.min_len, m.max_len, m.name, names, arrays))
+    out += ["}", ""]
+    for enum, names in ENUMS.items():
+        entries = enums[enum]
+        wanted = names if names is not None else tuple(k for k in entries if not k.endswith("_ENUM_END"))
+        out.append("# %s" % enum)
+        for n in wanted:
+            out.append("%s = const(%d)" % (n, entries[n]))
+        out.append("")
+    return "\n".join(out)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    p = argparse.ArgumentParser(prog="mavgen", description=__doc__.splitlines()[0])
+    p.add_argument("--xml", type=Path, default=None, help="common.xml (default: pymavlink's)")
+    p.add_argument("--out", type=Path, default=None, help="output (default shared/mavlink/messages.py)")
+    p.add_argument("--check", action="store_true", help="exit 1 if the committed file differs")
+    args = p.parse_args(argv)
+    text = generate(args.xml or default_xml())
+    out = args.out or default_out()
+    if args.check:
+        same = out.is_file() and out.read_text() == text
+        sys.stdout.write("%s: %s\n" % (out, "up to date" if same else "differs from the generator"))
+        return 0 if same else 1
+    tmp = out.with_suffix(".py.tmp")
+    tmp.write_text(text)
+    tmp.replace(out)
+    sys.stdout.write("wrote %s (%d messages)\n" % (out, len(MESSAGES)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
