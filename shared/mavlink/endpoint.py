@@ -1,0 +1,506 @@
+"""The vehicle's end of the MAVLink link.
+
+``Endpoint.update(now_ms)`` is called by the firmware's scheduler: it reads
+what the transport has, handles every complete frame, and sends what is due
+(heartbeat at 1 Hz, telemetry streams at their ``SR_*`` rates, the next
+parameters of a list request). Bytes move through an injected transport
+with ``read_into(buf) -> n`` (0 or None when nothing waits) and
+``write(buf)``: the firmware's UART radio driver on the board, a
+pseudo-terminal bridge in tests.
+
+Handled:
+
+- parameter protocol: PARAM_REQUEST_LIST (streamed a few a cycle),
+  PARAM_REQUEST_READ (by index or name), PARAM_SET (type and range enforced
+  by the ``ParamTable``; the PARAM_VALUE echo carries the value in force, so
+  a refused set shows as an unchanged value, and a STATUSTEXT says why);
+- COMMAND_LONG, answered with COMMAND_ACK: COMPONENT_ARM_DISARM,
+  DO_SET_MODE (custom mode = ``shared/modes.py`` number), DO_REPOSITION
+  (our convention, as COMMAND_LONG has no frame: param5 north, param6 east,
+  param7 down in metres, MAV_FRAME_LOCAL_NED; NaN keeps a coordinate),
+  PREFLIGHT_REBOOT_SHUTDOWN (param1 = 1 reboots, refused while armed),
+  SET_MESSAGE_INTERVAL (sets the matching ``SR_*`` rate). A refusal's reason
+  is ``modes.REASONS.index(reason)`` in ``result_param2`` and a STATUSTEXT;
+- SET_POSITION_TARGET_LOCAL_NED (position bits) sets the target too;
+- ATT_POS_MOCAP: the position fix goes into ``fix`` ([x, y, z, qw, qx,
+  qy, qz], m and NED), ``fix_time_us`` and ``fix_count`` for the estimator,
+  and to ``on_fix(fix)`` if given;
+- TIMESYNC requests are answered; HEARTBEATs from the ground refresh
+  ``gcs_last_ms`` (the ground-silence failsafe reads it); RADIO_STATUS from
+  the radio is kept in ``radio`` ([rssi, remrssi, txbuf, noise, remnoise,
+  rxerrors, fixed]).
+
+Signing: when ``signing`` has a key, every frame we send is signed, and
+every incoming frame must carry a valid, fresh signature, except
+RADIO_STATUS, which the radio itself inserts unsigned (MAVLink's rule);
+refused frames count in ``rejected``.
+
+Allocation: reading and framing allocate nothing but a 16-byte view per
+copy; handling a frame unpacks one tuple of its numbers (and boxes its
+floats). ``roboray-sim bench mavlink`` reports the bytes per frame.
+"""
+
+import struct
+from array import array
+
+from roboray.shared import modes as M
+from roboray.shared import quat
+from roboray.shared.mavlink import messages as msg
+from roboray.shared.mavlink.frame import Writer
+from roboray.shared.mavlink.parser import Parser
+from roboray.shared.params import ERRORS
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+_TICKS_MASK = const(0x3FFFFFFF)   # time.ticks_ms() wraps at 2**30 on MicroPython
+_TICKS_HALF = const(0x20000000)
+_PARAM_BURST = const(8)           # PARAM_VALUEs sent per update during a list
+_HEARTBEAT_MS = const(1000)
+_FORCE_MAGIC = const(21196)       # MAV_CMD_COMPONENT_ARM_DISARM param2: force
+
+# Stream groups and the parameter holding each one's rate
+_STREAM_PARAMS = ("SR_ATTITUDE", "SR_POSITION", "SR_SENSORS", "SR_SERVO", "SR_BATTERY", "SR_STATUS")
+_S_ATTITUDE = const(0)
+_S_POSITION = const(1)
+_S_SENSORS = const(2)
+_S_SERVO = const(3)
+_S_BATTERY = const(4)
+_S_STATUS = const(5)
+_N_STREAMS = const(6)
+
+_WING_NAMES = (b"wing1_deg", b"wing2_deg", b"wing3_deg", b"wing4_deg")
+_DEPTH_NAME = b"depth_m"
+
+_REASON_REBOOT_ARMED = "reboot refused: disarm first"
+_REASON_BAD_MODE_FLAGS = "DO_SET_MODE needs MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"
+_REASON_BAD_TARGET = "target needs finite coordinates"
+
+
+def ticks_diff(a, b):
+    """a - b on a 2**30 wrapping millisecond clock, as time.ticks_diff."""
+    return ((a - b + _TICKS_HALF) & _TICKS_MASK) - _TICKS_HALF
+
+
+def _stream_of(msgid):
+    if msgid == msg.MSG_ATTITUDE or msgid == msg.MSG_ATTITUDE_QUATERNION:
+        return _S_ATTITUDE
+    if msgid == msg.MSG_LOCAL_POSITION_NED or msgid == msg.MSG_POSITION_TARGET_LOCAL_NED:
+        return _S_POSITION
+    if msgid == msg.MSG_SCALED_PRESSURE or msgid == msg.MSG_SCALED_IMU:
+        return _S_SENSORS
+    if msgid == msg.MSG_SERVO_OUTPUT_RAW:
+        return _S_SERVO
+    if msgid == msg.MSG_BATTERY_STATUS:
+        return _S_BATTERY
+    if msgid == msg.MSG_SYS_STATUS or msgid == msg.MSG_SYSTEM_TIME:
+        return _S_STATUS
+    return -1
+
+
+class Endpoint:
+    """The vehicle's MAVLink endpoint.
+
+    Parameters
+    ----------
+    transport:
+        Object with ``read_into(buf) -> n`` and ``write(buf)``.
+    params:
+        The ``ParamTable``; must declare ``SYSID_THISMAV``, ``SYSID_MYGCS``
+        and the ``SR_*`` rates of ``shared/param_defs.py``.
+    modes:
+        The ``Modes`` object (arming, mode changes, heartbeat flags).
+    telemetry:
+        The ``Telemetry`` object the firmware fills.
+    signing:
+        A ``Signing`` object (key set or not), or None.
+    compid:
+        Our component id (MAV_COMP_ID_AUTOPILOT1 by default).
+    on_fix:
+        Called with ``fix`` when an ATT_POS_MOCAP arrives.
+    rx_size:
+        Bytes read from the transport per read.
+    """
+
+    def __init__(self, transport, params, modes, telemetry, signing=None,
+                 compid=msg.MAV_COMP_ID_AUTOPILOT1, on_fix=None, rx_size=128):
+        self.transport = transport
+        self.params = params
+        self.modes = modes
+        self.t = telemetry
+        self.signing = signing
+        self.on_fix = on_fix
+        idx = params.index("SYSID_THISMAV")
+        gcs = params.index("SYSID_MYGCS")
+        if idx < 0 or gcs < 0:
+            raise ValueError("params must declare SYSID_THISMAV and SYSID_MYGCS")
+        self._p_sysid = idx
+        self._p_gcs = gcs
+        self._p_rates = bytearray(_N_STREAMS)
+        for k in range(_N_STREAMS):
+            i = params.index(_STREAM_PARAMS[k])
+            if i < 0:
+                raise ValueError("params must declare %s" % _STREAM_PARAMS[k])
+            self._p_rates[k] = i
+        self.sysid = params.get_int(idx)
+        self.parser = Parser(signing)
+        self.writer = Writer(self.sysid, compid, signing)
+        self._rx = bytearray(rx_size)
+        self._rxv = memoryview(self._rx)
+        self._period_ms = array("l", [0] * _N_STREAMS)
+        self._due_ms = array("l", [0] * _N_STREAMS)
+        self._params_version = -1
+        self._hb_due = 0
+        self._param_next = -1   # next index to send for a list request, -1: none
+        self._text = bytearray(50)
+        self._euler = array("f", [0.0, 0.0, 0.0])
+        self.now_ms = 0
+        # for the firmware
+        self.fix = array("f", [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+        self.fix_time_us = 0
+        self.fix_count = 0
+        self.target_count = 0
+        self.gcs_last_ms = -1
+        self.reboot_requested = False
+        self.radio = array("H", [0] * 7)
+        self.radio_count = 0
+        # counters
+        self.rejected = 0
+        self.handled = 0
+        self.commands = 0
+
+    # ------------------------------------------------------------- driving
+    def update(self, now_ms):
+        """Read and handle what arrived, then send what is due."""
+        self.now_ms = now_ms & _TICKS_MASK
+        p = self.parser
+        while True:
+            n = self.transport.read_into(self._rx)
+            if not n:
+                break
+            i = 0
+            while i < n:
+                i = p.feed(self._rxv, i, n)
+                if p.ready:
+                    self._handle(p)
+            if n < len(self._rx):
+                break
+        self._send_due()
+
+    def _send_due(self):
+        now = self.now_ms
+        if ticks_diff(now, self._hb_due) >= 0:
+            self._hb_due = (now + _HEARTBEAT_MS) & _TICKS_MASK
+            self.send_heartbeat()
+        if self.params.version != self._params_version:
+            self._load_rates()
+        for k in range(_N_STREAMS):
+            period = self._period_ms[k]
+            if period > 0 and ticks_diff(now, self._due_ms[k]) >= 0:
+                self._due_ms[k] = (now + period) & _TICKS_MASK
+                self._send_stream(k)
+        if self._param_next >= 0:
+            count = self.params.count()
+            for _ in range(_PARAM_BURST):
+                i = self._param_next
+                if i >= count:
+                    self._param_next = -1
+                    break
+                self.send_param(i)
+                self._param_next = i + 1
+
+    def _load_rates(self):
+        self._params_version = self.params.version
+        for k in range(_N_STREAMS):
+            rate = self.params.get(self._p_rates[k])
+            self._period_ms[k] = int(1000.0 / rate) if rate > 0.0 else 0
+
+    def _send(self, msgid):
+        n = self.writer.finish(msgid)
+        self.transport.write(self.writer.view(n))
+
+    # ------------------------------------------------------------ handling
+    def _handle(self, p):
+        mid = p.msgid
+        s = self.signing
+        if s is not None and s.key is not None and not p.sig_ok and mid != msg.MSG_RADIO_STATUS:
+            self.rejected += 1
+            return
+        self.handled += 1
+        pl = p.payload
+        if mid == msg.MSG_HEARTBEAT:
+            if p.sysid == self.params.get_int(self._p_gcs):
+                self.gcs_last_ms = self.now_ms
+        elif mid == msg.MSG_COMMAND_LONG:
+            if self._for_us(pl[30], pl[31]):
+                self._command(p)
+        elif mid == msg.MSG_PARAM_REQUEST_LIST:
+            if self._for_us(pl[0], pl[1]):
+                self._param_next = 0
+        elif mid == msg.MSG_PARAM_REQUEST_READ:
+            if self._for_us(pl[2], pl[3]):
+                index = pl[0] | (pl[1] << 8)
+                if index >= 0x8000:
+                    index = self.params.find(pl, 4, 16)
+                if 0 <= index < self.params.count():
+                    self.send_param(index)
+        elif mid == msg.MSG_PARAM_SET:
+            if self._for_us(pl[4], pl[5]):
+                self._param_set(pl)
+        elif mid == msg.MSG_SET_POSITION_TARGET_LOCAL_NED:
+            if self._for_us(pl[50], pl[51]):
+                # position bits of type_mask (1, 2, 4) clear: a position target
+                if (pl[48] & 7) == 0 and pl[52] == msg.MAV_FRAME_LOCAL_NED:
+                    x, y, z = struct.unpack_from("<3f", pl, 4)
+                    self._set_target(x, y, z)
+        elif mid == msg.MSG_ATT_POS_MOCAP:
+            v = struct.unpack_from("<Q7f", pl, 0)
+            f = self.fix
+            f[0] = v[5]
+            f[1] = v[6]
+            f[2] = v[7]
+            f[3] = v[1]
+            f[4] = v[2]
+            f[5] = v[3]
+            f[6] = v[4]
+            self.fix_time_us = v[0]
+            self.fix_count += 1
+            if self.on_fix is not None:
+                self.on_fix(f)
+        elif mid == msg.MSG_TIMESYNC:
+            tc1, ts1 = struct.unpack_from("<qq", pl, 0)
+            if tc1 == 0:
+                w = self.writer
+                struct.pack_into(msg.TIMESYNC_FMT, w.buf, w.payload, self.now_ms * 1000000, ts1)
+                self._send(msg.MSG_TIMESYNC)
+        elif mid == msg.MSG_RADIO_STATUS:
+            r = self.radio
+            r[0] = pl[4]
+            r[1] = pl[5]
+            r[2] = pl[6]
+            r[3] = pl[7]
+            r[4] = pl[8]
+            r[5] = pl[0] | (pl[1] << 8)
+            r[6] = pl[2] | (pl[3] << 8)
+            self.radio_count += 1
+
+    def _for_us(self, target_system, target_component):
+        return (target_system == self.sysid or target_system == 0) and (
+            target_component == self.writer.compid or target_component == 0)
+
+    # ----------------------------------------------------------- parameters
+    def _param_set(self, pl):
+        params = self.params
+        i = params.find(pl, 6, 16)
+        if i < 0:
+            self.send_text(msg.MAV_SEVERITY_WARNING, "PARAM_SET: unknown parameter")
+            return
+        value = struct.unpack_from("<f", pl, 0)[0]
+        err = params.set(i, value)
+        if err:
+            self.send_text(msg.MAV_SEVERITY_WARNING, "%s: %s" % (params.name(i), _param_error(err)))
+        self.send_param(i)
+
+    def send_param(self, i):
+        params = self.params
+        w = self.writer
+        struct.pack_into(msg.PARAM_VALUE_FMT, w.buf, w.payload, params.get(i), params.count(), i,
+                         params.name_bytes(i), params.type(i))
+        self._send(msg.MSG_PARAM_VALUE)
+
+    # ------------------------------------------------------------- commands
+    def _command(self, p):
+        self.commands += 1
+        pl = p.payload
+        cmd = pl[28] | (pl[29] << 8)
+        if cmd == msg.MAV_CMD_COMPONENT_ARM_DISARM:
+            arm, force = struct.unpack_from("<2f", pl, 0)
+            if arm == 1.0:
+                result = self.modes.arm(force == _FORCE_MAGIC)
+            elif arm == 0.0:
+                result = self.modes.disarm()
+            else:
+                self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
+                return
+            self._ack_result(p, cmd, result)
+        elif cmd == msg.MAV_CMD_DO_SET_MODE:
+            base, custom = struct.unpack_from("<2f", pl, 0)
+            if not int(base) & msg.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_MODE_FLAGS)
+                return
+            self._ack_result(p, cmd, self.modes.request(int(custom)))
+        elif cmd == msg.MAV_CMD_DO_REPOSITION:
+            n, e, d = struct.unpack_from("<3f", pl, 16)
+            t = self.t.target_ned
+            if n != n:
+                n = t[0]
+            if e != e:
+                e = t[1]
+            if d != d:
+                d = t[2]
+            if n - n != 0 or e - e != 0 or d - d != 0:
+                self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_TARGET)
+                return
+            self._set_target(n, e, d)
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+        elif cmd == msg.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
+            what = struct.unpack_from("<f", pl, 0)[0]
+            if what != 1.0:
+                self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
+            elif self.modes.armed:
+                self._refuse(p, cmd, msg.MAV_RESULT_TEMPORARILY_REJECTED, _REASON_REBOOT_ARMED)
+            else:
+                self.reboot_requested = True
+                self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+        elif cmd == msg.MAV_CMD_SET_MESSAGE_INTERVAL:
+            mid, interval_us = struct.unpack_from("<2f", pl, 0)
+            k = _stream_of(int(mid))
+            if k < 0:
+                self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
+                return
+            rate = 0.0 if interval_us < 0 else (1e6 / interval_us if interval_us > 0 else 4.0)
+            err = self.params.set(self._p_rates[k], rate)
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED if err == 0 else msg.MAV_RESULT_DENIED, err)
+        else:
+            self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
+
+    def _set_target(self, n, e, d):
+        t = self.t
+        t.target_ned[0] = n
+        t.target_ned[1] = e
+        t.target_ned[2] = d
+        t.has_target = True
+        self.target_count += 1
+
+    def _ack_result(self, p, cmd, result):
+        if result[0]:
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+        else:
+            self._refuse(p, cmd, msg.MAV_RESULT_TEMPORARILY_REJECTED, result[1])
+
+    def _refuse(self, p, cmd, mav_result, reason):
+        code = M.REASONS.index(reason) if reason in M.REASONS else 255
+        self._ack(p, cmd, mav_result, code)
+        self.send_text(msg.MAV_SEVERITY_WARNING, reason)
+
+    def _ack(self, p, cmd, result, param2):
+        w = self.writer
+        struct.pack_into(msg.COMMAND_ACK_FMT, w.buf, w.payload, cmd, result, 0, param2, p.sysid, p.compid)
+        self._send(msg.MSG_COMMAND_ACK)
+
+    def send_text(self, severity, text):
+        """STATUSTEXT (up to 50 characters; longer text is cut)."""
+        b = self._text
+        n = len(text)
+        if n > 50:
+            n = 50
+        for i in range(n):
+            b[i] = ord(text[i])
+        for i in range(n, 50):
+            b[i] = 0
+        w = self.writer
+        struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, b, 0, 0)
+        self._send(msg.MSG_STATUSTEXT)
+
+    # ------------------------------------------------------------ telemetry
+    def send_heartbeat(self):
+        m = self.modes
+        w = self.writer
+        struct.pack_into(msg.HEARTBEAT_FMT, w.buf, w.payload, m.custom_mode(), msg.MAV_TYPE_SUBMARINE,
+                         msg.MAV_AUTOPILOT_GENERIC, m.base_mode(), m.system_status(), 3)
+        self._send(msg.MSG_HEARTBEAT)
+
+    def _send_stream(self, k):
+        t = self.t
+        w = self.writer
+        b = w.buf
+        o = w.payload
+        now = self.now_ms
+        if k == _S_ATTITUDE:
+            e = self._euler
+            quat.to_euler(e, t.q)
+            r = t.rates
+            struct.pack_into(msg.ATTITUDE_FMT, b, o, now, e[0], e[1], e[2], r[0], r[1], r[2])
+            self._send(msg.MSG_ATTITUDE)
+            q = t.q
+            struct.pack_into(msg.ATTITUDE_QUATERNION_FMT, b, o, now, q[0], q[1], q[2], q[3],
+                             r[0], r[1], r[2], 0.0, 0.0, 0.0, 0.0)
+            self._send(msg.MSG_ATTITUDE_QUATERNION)
+        elif k == _S_POSITION:
+            p = t.pos_ned
+            v = t.vel_ned
+            struct.pack_into(msg.LOCAL_POSITION_NED_FMT, b, o, now, p[0], p[1], p[2], v[0], v[1], v[2])
+            self._send(msg.MSG_LOCAL_POSITION_NED)
+            struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.env[0], _DEPTH_NAME)
+            self._send(msg.MSG_NAMED_VALUE_FLOAT)
+            if t.has_target:
+                g = t.target_ned
+                # type_mask 0xFF8: position only (velocity, acceleration, yaw ignored)
+                struct.pack_into(msg.POSITION_TARGET_LOCAL_NED_FMT, b, o, now, g[0], g[1], g[2],
+                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0xDF8, msg.MAV_FRAME_LOCAL_NED)
+                self._send(msg.MSG_POSITION_TARGET_LOCAL_NED)
+        elif k == _S_SENSORS:
+            env = t.env
+            struct.pack_into(msg.SCALED_PRESSURE_FMT, b, o, now, env[1] * 0.01, 0.0,
+                             _clamp16(env[2] * 100.0), 0)
+            self._send(msg.MSG_SCALED_PRESSURE)
+            m = t.imu
+            # mG, mrad/s, mgauss (SCALED_IMU units)
+            struct.pack_into(msg.SCALED_IMU_FMT, b, o, now,
+                             _clamp16(m[0] * 101.97162), _clamp16(m[1] * 101.97162), _clamp16(m[2] * 101.97162),
+                             _clamp16(m[3] * 1000.0), _clamp16(m[4] * 1000.0), _clamp16(m[5] * 1000.0),
+                             _clamp16(m[6] * 1000.0), _clamp16(m[7] * 1000.0), _clamp16(m[8] * 1000.0),
+                             _clamp16(env[2] * 100.0))
+            self._send(msg.MSG_SCALED_IMU)
+        elif k == _S_SERVO:
+            s = t.servo_us
+            struct.pack_into(msg.SERVO_OUTPUT_RAW_FMT, b, o, (now * 1000) & 0xFFFFFFFF,
+                             s[0], s[1], s[2], s[3], 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+            self._send(msg.MSG_SERVO_OUTPUT_RAW)
+            for i in range(4):
+                struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.servo_deg[i], _WING_NAMES[i])
+                self._send(msg.MSG_NAMED_VALUE_FLOAT)
+        elif k == _S_BATTERY:
+            bat = t.battery
+            w.clear(msg.BATTERY_STATUS_LEN)
+            mv = int(bat[0] * 1000.0)
+            if mv > 65534:
+                mv = 65534
+            struct.pack_into(msg.BATTERY_STATUS_FMT, b, o, -1, -1, 0x7FFF,
+                             mv, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF,
+                             _clamp16(bat[1] * 100.0), 0, 0, 0,
+                             int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0, 0, 0, 0, 0, 0)
+            self._send(msg.MSG_BATTERY_STATUS)
+        elif k == _S_STATUS:
+            bat = t.battery
+            mv = int(bat[0] * 1000.0)
+            if mv > 65534:
+                mv = 65534
+            par = self.parser
+            drop = 0
+            total = par.frames + par.lost
+            if total > 0:
+                drop = (par.lost * 10000) // total
+            struct.pack_into(msg.SYS_STATUS_FMT, b, o, t.sensors_present, t.sensors_enabled, t.sensors_health,
+                             t.load_permille, mv, _clamp16(bat[1] * 100.0), drop,
+                             (par.crc_errors + par.bad_header) & 0xFFFF, t.failsafe_flags & 0xFFFF,
+                             0, 0, 0, int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0)
+            self._send(msg.MSG_SYS_STATUS)
+            struct.pack_into(msg.SYSTEM_TIME_FMT, b, o, 0, now)
+            self._send(msg.MSG_SYSTEM_TIME)
+
+
+def _clamp16(x):
+    v = int(x)
+    if v > 32767:
+        return 32767
+    if v < -32768:
+        return -32768
+    return v
+
+
+def _param_error(err):
+    return ERRORS[err] if 0 <= err < len(ERRORS) else "error %d" % err

@@ -1,0 +1,50 @@
+"""The vehicle's parameters, declared in one place.
+
+Each group is a tuple of ``(name, type, default, min, max[, flags])``
+entries (see ``shared/params.py``); ``PARAMS`` is what the firmware builds
+its ``ParamTable`` from. A module that needs parameters of its own (the
+controller's gains, say) declares its group beside these and the firmware
+concatenates: ``ParamTable(param_defs.PARAMS + controller.PARAMS)``.
+Names follow ArduPilot's where one exists, so parameter files and habits
+carry over.
+"""
+
+from roboray.shared.params import READ_ONLY, TYPE_INT32, TYPE_REAL32, TYPE_UINT8
+
+#: Identity and link.
+LINK = (
+    ("SYSID_THISMAV", TYPE_UINT8, 1, 1, 255),        # our MAVLink system id
+    ("SYSID_MYGCS", TYPE_UINT8, 255, 1, 255),         # the ground station's system id
+    ("SERIAL_BAUD", TYPE_INT32, 57600, 1200, 921600, READ_ONLY),  # radio UART, baud
+)
+
+#: Telemetry stream rates in Hz (0 = off); the heartbeat is always 1 Hz.
+STREAMS = (
+    ("SR_ATTITUDE", TYPE_REAL32, 4.0, 0.0, 50.0),    # ATTITUDE, ATTITUDE_QUATERNION
+    ("SR_POSITION", TYPE_REAL32, 2.0, 0.0, 50.0),    # LOCAL_POSITION_NED, POSITION_TARGET_LOCAL_NED
+    ("SR_SENSORS", TYPE_REAL32, 1.0, 0.0, 50.0),     # SCALED_PRESSURE, SCALED_IMU
+    ("SR_SERVO", TYPE_REAL32, 2.0, 0.0, 50.0),       # SERVO_OUTPUT_RAW
+    ("SR_BATTERY", TYPE_REAL32, 0.5, 0.0, 10.0),     # BATTERY_STATUS
+    ("SR_STATUS", TYPE_REAL32, 1.0, 0.0, 10.0),      # SYS_STATUS, SYSTEM_TIME, NAMED_VALUE_FLOAT
+)
+
+#: Failsafes (issue 9 uses these): enables, time-outs and actions.
+FAILSAFE = (
+    ("FS_GCS_ENABLE", TYPE_UINT8, 1, 0, 1),          # failsafe when the ground falls silent
+    ("FS_GCS_TIMEOUT", TYPE_REAL32, 5.0, 1.0, 120.0),  # s without a ground heartbeat
+    ("FS_LEAK_ENABLE", TYPE_UINT8, 1, 0, 1),         # failsafe on the leak sensor
+    ("FS_EKF_ACTION", TYPE_UINT8, 1, 0, 2),          # 0 report, 1 FAILSAFE mode, 2 PASSIVE mode
+    ("FS_EKF_THRESH", TYPE_REAL32, 0.8, 0.1, 5.0),   # estimator innovation ratio that trips it
+    ("BATT_FS_LOW_ACT", TYPE_UINT8, 1, 0, 2),        # 0 report, 1 FAILSAFE mode, 2 PASSIVE mode
+    ("BATT_LOW_VOLT", TYPE_REAL32, 6.6, 0.0, 30.0),  # V, low-battery threshold
+)
+
+#: Mode logic (shared/modes.py): wing angles of the fixed configurations, in degrees.
+MODES = (
+    ("ARMING_CHECK", TYPE_UINT8, 1, 0, 1),           # run the pre-arm checks
+    ("SERVO_SAFE_DEG", TYPE_REAL32, 0.0, -90.0, 90.0),     # DISARMED
+    ("PASSIVE_WING_DEG", TYPE_REAL32, 45.0, -90.0, 90.0),  # PASSIVE
+    ("FS_WING_DEG", TYPE_REAL32, 90.0, -90.0, 90.0),       # FAILSAFE: folded, fastest descent
+)
+
+PARAMS = LINK + STREAMS + FAILSAFE + MODES

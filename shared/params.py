@@ -1,0 +1,236 @@
+"""The vehicle's parameter table: named, typed values with limits.
+
+The firmware declares every parameter once, as a tuple of entries
+``(name, type, default, min, max)`` or ``(name, type, default, min, max,
+flags)`` (``shared/param_defs.py`` holds the vehicle's); ``ParamTable``
+holds their values in buffers made at construction. The MAVLink endpoint
+(parameter protocol) and ``firmware/param_store.py`` (flash) use exactly
+this API, which is stable:
+
+``count()``
+    number of parameters; indices run 0 .. count()-1 in declaration order.
+``index(name) -> int``
+    index of ``name`` (a str), -1 if unknown; a dict look-up, no allocation.
+``find(buf, offset, length) -> int``
+    the same for a name held in bytes (a MAVLink ``param_id``: up to 16
+    bytes, NUL-padded when shorter), without building a str.
+``name(i)``, ``type(i)``, ``minimum(i)``, ``maximum(i)``, ``default(i)``, ``flags(i)``
+    the declaration of parameter ``i``; ``type`` is a ``MAV_PARAM_TYPE``.
+``get(i) -> float``
+    current value (integers are exact as floats up to 2**24).
+``set(i, value) -> int``
+    ``OK`` (0) or an error: ``ERR_RANGE`` (outside min..max), ``ERR_TYPE``
+    (not a finite number, or not a whole number for an integer type),
+    ``ERR_READ_ONLY``, ``ERR_INDEX``. A rejected value changes nothing.
+``set_by_name(name, value) -> int``
+    ``set`` by name; ``ERR_UNKNOWN`` for an unknown name.
+``defaults()``
+    every parameter back to its default.
+``version``
+    counts successful changes, so a store can tell when to save.
+
+Types: ``TYPE_UINT8``, ``TYPE_INT8``, ``TYPE_UINT16``, ``TYPE_INT16``,
+``TYPE_INT32`` and ``TYPE_REAL32``, numbered as MAVLink's ``MAV_PARAM_TYPE``;
+their values cross the link as floats (MAVLink's "C cast" encoding).
+"""
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+TYPE_UINT8 = const(1)
+TYPE_INT8 = const(2)
+TYPE_UINT16 = const(3)
+TYPE_INT16 = const(4)
+TYPE_INT32 = const(6)
+TYPE_REAL32 = const(9)
+
+#: Natural limits of each integer type: (min, max).
+_LIMITS = {
+    TYPE_UINT8: (0, 255), TYPE_INT8: (-128, 127), TYPE_UINT16: (0, 65535),
+    TYPE_INT16: (-32768, 32767), TYPE_INT32: (-2147483648, 2147483647),
+}
+
+OK = const(0)
+ERR_RANGE = const(1)
+ERR_TYPE = const(2)
+ERR_READ_ONLY = const(3)
+ERR_UNKNOWN = const(4)
+ERR_INDEX = const(5)
+
+#: Text for each error code, for logs and the ground station.
+ERRORS = ("ok", "out of range", "wrong type", "read only", "unknown parameter", "no such index")
+
+#: Declaration flag: the value cannot be set over the link.
+READ_ONLY = const(1)
+
+NAME_LEN = const(16)
+
+
+def _hash(buf, offset, length):
+    # Small-integer hash of a NUL-terminated name: stays below 2**24.
+    h = 0
+    for i in range(offset, offset + length):
+        c = buf[i]
+        if c == 0:
+            break
+        h = (h * 31 + c) & 0xFFFFFF
+    return h
+
+
+class ParamTable:
+    """Values for a declaration tuple; see the module docstring for the API."""
+
+    def __init__(self, decls):
+        n = len(decls)
+        self._names = []
+        self._bnames = []
+        self._types = bytearray(n)
+        self._flags = bytearray(n)
+        self._default = array("f", [0.0] * n)
+        self._min = array("f", [0.0] * n)
+        self._max = array("f", [0.0] * n)
+        self._ival = array("l", [0] * n)   # integer types: exact
+        self._fval = array("f", [0.0] * n)  # REAL32
+        self._index = {}
+        self._hashed = {}
+        self.version = 0
+        for i in range(n):
+            d = decls[i]
+            if len(d) not in (5, 6):
+                raise ValueError("parameter %r: expected (name, type, default, min, max[, flags])" % (d,))
+            name, ptype, default, lo, hi = d[0], d[1], d[2], d[3], d[4]
+            if not isinstance(name, str) or not 0 < len(name) <= NAME_LEN:
+                raise ValueError("parameter name %r must be 1..16 characters" % (name,))
+            if name in self._index:
+                raise ValueError("parameter %s declared twice" % name)
+            if ptype != TYPE_REAL32 and ptype not in _LIMITS:
+                raise ValueError("parameter %s: unsupported type %r" % (name, ptype))
+            if ptype in _LIMITS:
+                tlo, thi = _LIMITS[ptype]
+                if lo < tlo or hi > thi or lo != int(lo) or hi != int(hi):
+                    raise ValueError("parameter %s: limits %r..%r do not fit its type" % (name, lo, hi))
+            if not lo <= default <= hi:
+                raise ValueError("parameter %s: default %r outside %r..%r" % (name, default, lo, hi))
+            self._names.append(name)
+            self._bnames.append(name.encode())
+            self._types[i] = ptype
+            self._flags[i] = d[5] if len(d) == 6 else 0
+            self._default[i] = default
+            self._min[i] = lo
+            self._max[i] = hi
+            self._index[name] = i
+            b = self._bnames[i]
+            h = _hash(b, 0, len(b))
+            self._hashed[h] = -2 if h in self._hashed else i  # -2: collision, scan
+        self._decl_defaults = [d[2] for d in decls]
+        self.defaults()
+        self.version = 0
+
+    # ------------------------------------------------------------ look-up
+    def count(self):
+        return len(self._names)
+
+    def index(self, name):
+        return self._index.get(name, -1)
+
+    def find(self, buf, offset, length=NAME_LEN):
+        """Index of the NUL-padded name in ``buf[offset:offset+length]``, or -1."""
+        i = self._hashed.get(_hash(buf, offset, length), -1)
+        if i >= 0:
+            return i if self._same(i, buf, offset, length) else -1
+        if i == -2:
+            for j in range(len(self._bnames)):
+                if self._same(j, buf, offset, length):
+                    return j
+        return -1
+
+    def _same(self, i, buf, offset, length):
+        b = self._bnames[i]
+        n = len(b)
+        if n > length:
+            return False
+        for k in range(n):
+            if buf[offset + k] != b[k]:
+                return False
+        return n == length or buf[offset + n] == 0
+
+    def name(self, i):
+        return self._names[i]
+
+    def name_bytes(self, i):
+        """The name as bytes (what goes into a MAVLink ``param_id``)."""
+        return self._bnames[i]
+
+    def type(self, i):
+        return self._types[i]
+
+    def flags(self, i):
+        return self._flags[i]
+
+    def minimum(self, i):
+        return self._min[i]
+
+    def maximum(self, i):
+        return self._max[i]
+
+    def default(self, i):
+        return self._default[i]
+
+    # ------------------------------------------------------------- values
+    def get(self, i):
+        if self._types[i] == TYPE_REAL32:
+            return self._fval[i]
+        return float(self._ival[i])
+
+    def get_int(self, i):
+        """Value of an integer parameter without boxing a float."""
+        if self._types[i] == TYPE_REAL32:
+            return int(self._fval[i])
+        return self._ival[i]
+
+    def set(self, i, value):
+        if not 0 <= i < len(self._names):
+            return ERR_INDEX
+        if self._flags[i] & READ_ONLY:
+            return ERR_READ_ONLY
+        return self._store(i, value)
+
+    def set_by_name(self, name, value):
+        i = self._index.get(name, -1)
+        if i < 0:
+            return ERR_UNKNOWN
+        return self.set(i, value)
+
+    def _store(self, i, value):
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            return ERR_TYPE
+        if value - value != 0:  # NaN or infinite
+            return ERR_TYPE
+        if self._types[i] == TYPE_REAL32:
+            if value < self._min[i] or value > self._max[i]:
+                return ERR_RANGE
+            self._fval[i] = value
+        else:
+            iv = int(value)
+            if iv != value:
+                return ERR_TYPE
+            if iv < self._min[i] or iv > self._max[i]:
+                return ERR_RANGE
+            self._ival[i] = iv
+        self.version += 1
+        return OK
+
+    def defaults(self):
+        """Every parameter to its declared default (read-only ones included)."""
+        d = self._decl_defaults
+        for i in range(len(self._names)):
+            if self._types[i] == TYPE_REAL32:
+                self._fval[i] = d[i]
+            else:
+                self._ival[i] = int(d[i])
+        self.version += 1
