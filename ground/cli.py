@@ -1,11 +1,23 @@
-"""``roboray-ground``: the ground station."""
+"""``roboray-ground``: the ground station.
+
+MAVProxy's conventions where they exist: ``--master`` takes pymavlink's
+connection strings, ``--baudrate`` defaults to 57600 (SiK radios),
+``--source-system`` to 255, ``--key``/``--key-file`` set up MAVLink 2
+signing with MAVProxy's key derivation. Link handling lives in
+``ground/link.py``; this module only parses, dispatches and prints.
+"""
 
 from __future__ import annotations
 
 import argparse
-from typing import Optional, Sequence
+import json
+import math
+import os
+import sys
+import time
+from typing import Any, Optional, Sequence
 
-from roboray.tools.cli import add_json, command, emit, make_parser, run
+from roboray.tools.cli import CliError, UsageError, add_json, command, emit, make_parser, number, run
 
 
 def do_ports(args: argparse.Namespace) -> None:
@@ -35,10 +47,431 @@ def do_ports(args: argparse.Namespace) -> None:
     emit(args, ports, text)
 
 
+# ------------------------------------------------------------------ link
+def _key(args: argparse.Namespace) -> Optional[bytes]:
+    from roboray.ground.link import key_from_passphrase, read_key_file
+
+    if getattr(args, "key", None) and getattr(args, "key_file", None):
+        raise UsageError("give --key or --key-file, not both")
+    if getattr(args, "key_file", None):
+        return key_from_passphrase(read_key_file(args.key_file))
+    if getattr(args, "key", None):
+        return key_from_passphrase(args.key)
+    return None
+
+
+def _connect(args: argparse.Namespace):
+    from roboray.ground.link import Link
+
+    link = Link(args.master, args.baudrate, args.source_system, _key(args))
+    try:
+        link.wait_heartbeat(args.timeout)
+    except BaseException:
+        link.close()
+        raise
+    return link
+
+
+def _link_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("link (MAVProxy's options)")
+    g.add_argument("--master", required=True,
+                   help="serial port (PATH or PATH,BAUD), udpin:HOST:PORT, udpout:HOST:PORT or tcp:HOST:PORT")
+    g.add_argument("--baudrate", type=int, default=57600, help="serial baud rate (default 57600)")
+    g.add_argument("--source-system", type=int, default=255, help="our MAVLink system id (default 255)")
+    g.add_argument("--key", metavar="PASSPHRASE", help="sign with the key MAVProxy derives from PASSPHRASE")
+    g.add_argument("--key-file", metavar="FILE", help="read the signing passphrase from FILE's first line")
+    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the vehicle (default 5)")
+
+
+# ---------------------------------------------------------------- status
+def do_status(args: argparse.Namespace) -> None:
+    """One look at the vehicle: heartbeat, then a second of telemetry."""
+    from roboray.ground.watch import State, render
+
+    link = _connect(args)
+    state = State()
+    link.on_message = state.update
+    try:
+        end = time.monotonic() + args.listen
+        while time.monotonic() < end:
+            link.recv(0.1)
+    finally:
+        link.close()
+    deg = 180.0 / math.pi
+    result = {
+        "source": link.describe(), "system": link.target_system, "component": link.target_component,
+        "mode": state.mode_name(), "armed": state.armed,
+        "roll_deg": state.att[0] * deg, "pitch_deg": state.att[1] * deg, "yaw_deg": state.att[2] * deg,
+        "depth_m": state.depth, "position_ned_m": list(state.pos), "velocity_ned_mps": list(state.vel),
+        "wings_deg": state.wings, "battery_v": state.battery_v, "battery_pct": state.battery_pct,
+        "failsafe_flags": state.failsafe_flags, "frames": state.received, "lost": state.lost,
+    }
+    emit(args, _finite(result), lambda r: "\n".join(render(state, link.describe())))
+
+
+def _finite(o: Any) -> Any:
+    """NaN (not received) as null, so --json stays strict JSON."""
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, list):
+        return [_finite(v) for v in o]
+    return o
+
+
+# -------------------------------------------------------------- commands
+MAV_CMD_COMPONENT_ARM_DISARM = 400
+MAV_CMD_DO_SET_MODE = 176
+MAV_CMD_DO_REPOSITION = 192
+FORCE_ARM = 21196
+
+
+def _command(args: argparse.Namespace, cmd: int, params: tuple, name: str, done: str) -> None:
+    link = _connect(args)
+    try:
+        link.command(cmd, params, timeout=args.ack_timeout, name=name)
+    finally:
+        link.close()
+    emit(args, {"command": name, "result": "accepted"}, lambda r: done)
+
+
+def do_arm(args: argparse.Namespace) -> None:
+    _command(args, MAV_CMD_COMPONENT_ARM_DISARM, (1, FORCE_ARM if args.force else 0), "arm", "armed")
+
+
+def do_disarm(args: argparse.Namespace) -> None:
+    _command(args, MAV_CMD_COMPONENT_ARM_DISARM, (0, FORCE_ARM if args.force else 0), "disarm", "disarmed")
+
+
+def do_mode(args: argparse.Namespace) -> None:
+    from roboray.shared import modes
+
+    number_ = modes.mode_number(args.name)
+    if number_ < 0:
+        raise UsageError("unknown mode %r: choose from %s" % (args.name, ", ".join(modes.NAMES)))
+    _command(args, MAV_CMD_DO_SET_MODE, (1, number_), "mode %s" % modes.NAMES[number_],
+             "mode %s" % modes.NAMES[number_])
+
+
+def do_target(args: argparse.Namespace) -> None:
+    down = math.nan if args.down is None else args.down
+    _command(args, MAV_CMD_DO_REPOSITION, (-1, 0, 0, math.nan, args.north, args.east, down),
+             "target", "target %.2f m north, %.2f m east" % (args.north, args.east))
+
+
+# ------------------------------------------------------------ parameters
+def _fetch_all(args: argparse.Namespace) -> dict:
+    link = _connect(args)
+    try:
+        return link.param_list(args.param_timeout)
+    finally:
+        link.close()
+
+
+def do_param(args: argparse.Namespace) -> None:
+    from roboray.ground import paramfile
+    from roboray.ground.link import fmt_value
+
+    action = args.action
+    rest = args.rest
+    need = {"list": 0, "get": 1, "set": 2, "save": 1, "load": 1, "diff": 1}[action]
+    if len(rest) != need:
+        usage = {"list": "param list", "get": "param get NAME", "set": "param set NAME VALUE",
+                 "save": "param save FILE", "load": "param load FILE", "diff": "param diff FILE"}[action]
+        raise UsageError("usage: %s" % usage)
+    if action == "list":
+        values = _fetch_all(args)
+        emit(args, {k: v[0] for k, v in values.items()},
+             lambda r: paramfile.format_lines((k, fmt_value(*values[k])) for k in sorted(values)))
+    elif action == "get":
+        name = rest[0].upper()
+        link = _connect(args)
+        try:
+            value, ptype = link.param_get(name)
+        finally:
+            link.close()
+        emit(args, {name: value}, lambda r: "%s %s" % (name, fmt_value(value, ptype)))
+    elif action == "set":
+        name = rest[0].upper()
+        try:
+            value = number(rest[1])
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError("param set %s: %s" % (name, exc))
+        link = _connect(args)
+        try:
+            now, ptype = link.param_get(name)
+            got = link.param_set(name, value, ptype)
+        finally:
+            link.close()
+        emit(args, {name: got}, lambda r: "%s %s (was %s)" % (name, fmt_value(got, ptype), fmt_value(now, ptype)))
+    elif action == "save":
+        values = _fetch_all(args)
+        paramfile.save(rest[0], ((k, fmt_value(*values[k])) for k in sorted(values)))
+        emit(args, {"file": rest[0], "count": len(values)}, lambda r: "saved %d parameters to %s" % (len(values), rest[0]))
+    elif action == "load":
+        wanted = _read_param_file(rest[0])
+        link = _connect(args)
+        changed, same, failed = [], 0, []
+        try:
+            values = link.param_list(args.param_timeout)
+            for name, value in wanted.items():
+                if name not in values:
+                    failed.append("%s: not on the vehicle" % name)
+                elif _f32(values[name][0]) == _f32(value):
+                    same += 1
+                else:
+                    try:
+                        link.param_set(name, value, values[name][1])
+                        changed.append(name)
+                    except CliError as exc:
+                        failed.append(str(exc))
+        finally:
+            link.close()
+        result = {"file": rest[0], "changed": changed, "unchanged": same, "failed": failed}
+        emit(args, result, lambda r: "\n".join(
+            ["loaded %s: %d changed, %d already equal, %d failed" % (rest[0], len(changed), same, len(failed))]
+            + ["  " + f for f in failed]))
+        if failed:
+            raise CliError("%d parameter(s) of %s not loaded" % (len(failed), rest[0]))
+    elif action == "diff":
+        wanted = _read_param_file(rest[0])
+        values = _fetch_all(args)
+        rows = []
+        for name in sorted(set(wanted) | set(values)):
+            if name not in values:
+                rows.append({"name": name, "file": wanted[name], "vehicle": None})
+            elif name not in wanted:
+                rows.append({"name": name, "file": None, "vehicle": values[name][0]})
+            elif _f32(values[name][0]) != _f32(wanted[name]):
+                rows.append({"name": name, "file": wanted[name], "vehicle": values[name][0]})
+
+        def text(r: list) -> str:
+            if not r:
+                return "no differences"
+            return "\n".join("%-16s file %-12s vehicle %s" % (
+                x["name"], "--" if x["file"] is None else "%.7g" % x["file"],
+                "--" if x["vehicle"] is None else "%.7g" % x["vehicle"]) for x in r)
+
+        emit(args, rows, text)
+
+
+def _read_param_file(path: str) -> dict:
+    from roboray.ground import paramfile
+
+    try:
+        return paramfile.load(path)
+    except paramfile.ParamFileError as exc:
+        raise CliError(str(exc))
+
+
+def _f32(x: float) -> bytes:
+    import struct
+
+    return struct.pack("<f", x)
+
+
+# ----------------------------------------------------------------- watch
+def do_watch(args: argparse.Namespace) -> None:
+    """Live view; redraws in place on a terminal, one line a second otherwise."""
+    from roboray.ground.link import Link, LinkError
+    from roboray.ground.watch import State, one_line, render
+
+    tty = sys.stdout.isatty() and not args.plain
+    state = State()
+    link = Link(args.master, args.baudrate, args.source_system, _key(args))
+    link.on_message = state.update
+    end = math.inf if args.duration is None else time.monotonic() + args.duration
+    next_draw = 0.0
+    if tty:
+        sys.stdout.write("\x1b[?25l\x1b[2J")  # hide the cursor, clear once
+    try:
+        while time.monotonic() < end:
+            try:
+                link.recv(0.05)
+            except LinkError:
+                time.sleep(0.5)  # the port came and went: keep showing "link lost"
+            now = time.monotonic()
+            if now < next_draw:
+                continue
+            if tty:
+                next_draw = now + 0.25
+                lines = render(state, link.describe(), now)
+                sys.stdout.write("\x1b[H" + "".join(line + "\x1b[K\n" for line in lines) + "\x1b[J")
+            else:
+                next_draw = now + 1.0
+                sys.stdout.write(time.strftime("%H:%M:%S ") + one_line(state, now) + "\n")
+            sys.stdout.flush()
+    finally:
+        if tty:
+            sys.stdout.write("\x1b[?25h")
+            sys.stdout.flush()
+        link.close()
+
+
+# ------------------------------------------------------------------- logs
+def do_log(args: argparse.Namespace) -> None:
+    if args.action == "record":
+        _log_record(args)
+    else:
+        _log_plot(args)
+
+
+def _log_record(args: argparse.Namespace) -> None:
+    from roboray.ground.tlog import TlogWriter
+
+    if not args.master:
+        raise UsageError("log record needs --master")
+    link = _connect(args)
+    count = 0
+    end = math.inf if args.duration is None else time.monotonic() + args.duration
+    tmp = args.file
+    try:
+        with open(tmp, "wb") as f:
+            writer = TlogWriter(f)
+            link.on_message = lambda m: writer.write(m.get_msgbuf())
+            try:
+                while time.monotonic() < end:
+                    link.recv(0.1)
+                    f.flush()
+            except KeyboardInterrupt:
+                pass
+            count = writer.frames
+    finally:
+        link.close()
+    emit(args, {"file": args.file, "frames": count}, lambda r: "recorded %d frames to %s" % (count, args.file))
+
+
+def _log_plot(args: argparse.Namespace) -> None:
+    from roboray.ground import plot
+
+    if not args.out:
+        raise UsageError("log plot needs --out FILE.png")
+    with open(args.file, "rb") as f:
+        data = f.read()
+    try:
+        counts = plot.plot(data, args.out, title=os.path.basename(args.file))
+    except ValueError as exc:
+        raise CliError("%s: %s" % (args.file, exc))
+    emit(args, {"out": args.out, "samples": counts}, lambda r: "wrote %s" % args.out)
+
+
+def do_tlog_dump(args: argparse.Namespace) -> None:
+    """Decode a tlog with the board codec: one JSON object a message (JSON lines)."""
+    from roboray.ground import tlog
+    from roboray.ground.link import key_from_passphrase
+
+    with open(args.file, "rb") as f:
+        data = f.read()
+    dec = tlog.Decoder(key_from_passphrase(args.key) if args.key else None)
+    out = sys.stdout
+    n = 0
+    for t_us, frame in tlog.records(data):
+        m = dec.decode(frame)
+        if args.types and m["mavpackettype"] not in args.types:
+            continue
+        n += 1
+        if args.json:
+            m = {"timestamp": t_us / 1e6, **m}
+            out.write(json.dumps(_finite(m)) + "\n")
+        else:
+            fields = ", ".join("%s: %s" % (k, v) for k, v in m.items() if k != "mavpackettype")
+            out.write("%s %s {%s}\n" % (time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(t_us / 1e6)),
+                                         m["mavpackettype"], fields))
+    out.flush()
+    if n == 0 and not data:
+        raise CliError("%s is empty" % args.file)
+
+
+# ------------------------------------------------------------------ demo
+def do_demo_vehicle(args: argparse.Namespace) -> None:
+    """The board endpoint on MicroPython behind a pseudo-terminal, until Ctrl-C."""
+    from roboray.ground.vehicle import PtyVehicle
+
+    key = _key(args)
+    with PtyVehicle(key=key, sysid=args.sysid, animate=not args.still) as v:
+        sys.stdout.write(v.device + "\n")
+        sys.stdout.flush()
+        end = math.inf if args.duration is None else time.monotonic() + args.duration
+        while time.monotonic() < end and v.error is None:
+            time.sleep(0.2)
+        if v.error is not None:
+            raise CliError("vehicle stopped: %s" % str(v.error).splitlines()[-1])
+
+
 def build_parser():
     parser, sub = make_parser("roboray-ground", "RoboRay ground station (MAVLink 2 over a serial radio or UDP).")
     p = command(sub, "ports", do_ports, "list the serial ports a radio could be on")
     add_json(p)
+
+    p = command(sub, "status", do_status, "the vehicle's state, once")
+    _link_options(p)
+    p.add_argument("--listen", type=float, default=1.5, help="seconds of telemetry to gather (default 1.5)")
+    add_json(p)
+
+    p = command(sub, "watch", do_watch, "live view of the vehicle, redrawn in place")
+    _link_options(p)
+    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--plain", action="store_true", help="line output even on a terminal")
+
+    for name, handler, text in (("arm", do_arm, "arm the vehicle (DISARMED -> PASSIVE)"),
+                                ("disarm", do_disarm, "disarm the vehicle (servos to the safe position)")):
+        p = command(sub, name, handler, text)
+        _link_options(p)
+        p.add_argument("--force", action="store_true", help="skip the vehicle's pre-arm checks")
+        p.add_argument("--ack-timeout", type=float, default=3.0, help="seconds to wait for COMMAND_ACK")
+        add_json(p)
+
+    p = command(sub, "mode", do_mode, "switch flight mode (DISARMED, PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE)")
+    p.add_argument("name", metavar="NAME")
+    _link_options(p)
+    p.add_argument("--ack-timeout", type=float, default=3.0, help="seconds to wait for COMMAND_ACK")
+    add_json(p)
+
+    p = command(sub, "target", do_target, "set the landing target, metres north and east of the release point")
+    p.add_argument("north", type=number, metavar="NORTH")
+    p.add_argument("east", type=number, metavar="EAST")
+    p.add_argument("--down", type=number, default=None, help="target depth in metres (default: keep)")
+    _link_options(p)
+    p.add_argument("--ack-timeout", type=float, default=3.0, help="seconds to wait for COMMAND_ACK")
+    add_json(p)
+
+    p = command(sub, "param", do_param, "list, get, set, save, load or diff parameters (ArduPilot file format)")
+    p.add_argument("action", choices=("list", "get", "set", "save", "load", "diff"))
+    p.add_argument("rest", nargs="*", metavar="ARG", help="NAME, NAME VALUE or FILE")
+    _link_options(p)
+    p.add_argument("--param-timeout", type=float, default=10.0, help="seconds for a full parameter list")
+    add_json(p)
+
+    p = command(sub, "log", do_log, "record a tlog, or plot one")
+    p.add_argument("action", choices=("record", "plot"))
+    p.add_argument("file", metavar="FILE.tlog")
+    p.add_argument("--out", help="plot: the PNG to write")
+    p.add_argument("--duration", type=float, default=None, help="record: stop after this many seconds")
+    g = p.add_argument_group("link (record)")
+    g.add_argument("--master", help="serial port or pymavlink connection string")
+    g.add_argument("--baudrate", type=int, default=57600)
+    g.add_argument("--source-system", type=int, default=255)
+    g.add_argument("--key", metavar="PASSPHRASE")
+    g.add_argument("--key-file", metavar="FILE")
+    g.add_argument("--timeout", type=float, default=5.0)
+    add_json(p)
+
+    tl = sub.add_parser("tlog", help="read tlogs with the board's own codec", description="read tlogs with the board's own codec")
+    tl_sub = tl.add_subparsers(title="actions", metavar="ACTION", parser_class=type(parser))
+    p = command(tl_sub, "dump", do_tlog_dump, "decode a tlog: one JSON object per message with --json")
+    p.add_argument("file", metavar="FILE")
+    p.add_argument("--key", metavar="PASSPHRASE", help="check signatures with this passphrase's key")
+    p.add_argument("--types", nargs="+", metavar="TYPE", help="only these message types")
+    add_json(p)
+
+    p = command(sub, "demo-vehicle", do_demo_vehicle,
+                "serve the board endpoint (MicroPython) behind a pseudo-terminal; prints its path")
+    p.add_argument("--sysid", type=int, default=1)
+    p.add_argument("--key", metavar="PASSPHRASE")
+    p.add_argument("--key-file", metavar="FILE")
+    p.add_argument("--still", action="store_true", help="hold the telemetry still (default: a scripted descent)")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     return parser
 
 

@@ -1,0 +1,274 @@
+"""The ground station's MAVLink link to the vehicle, on pymavlink.
+
+Connection strings are pymavlink's (as MAVProxy's ``--master``): a serial
+path (``/dev/ttyUSB0``, or ``/dev/ttyUSB0,57600``), ``udpin:HOST:PORT``,
+``udpout:HOST:PORT``, ``tcp:HOST:PORT``. Every failure a user can cause
+becomes a ``LinkError`` (a ``CliError``) with one line saying what to check.
+
+Signing: ``--key PASSPHRASE`` derives the 32-byte key as MAVProxy's
+``signing setup`` does (SHA-256 of the passphrase); we sign what we send and
+pymavlink refuses what the vehicle sends unsigned or badly signed. We send
+a GCS heartbeat before waiting for the vehicle's: a vehicle without a clock
+takes its signing timestamps from ours.
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import logging
+import math
+import os
+import time
+from typing import Any, Callable, Optional
+
+from roboray.shared import modes as vehicle_modes
+from roboray.tools.cli import CliError
+
+log = logging.getLogger("roboray.ground")
+
+DEFAULT_BAUD = 57600
+#: Our component id: a ground control station (MAV_COMP_ID_MISSIONPLANNER).
+GCS_COMPONENT = 190
+
+RESULTS = {
+    0: "accepted", 1: "temporarily rejected", 2: "denied", 3: "unsupported",
+    4: "failed", 5: "in progress", 6: "cancelled",
+}
+
+
+class LinkError(CliError):
+    """A link failure the user can fix; one line, exit status 1."""
+
+
+def key_from_passphrase(passphrase: str) -> bytes:
+    """MAVProxy's ``signing setup PASSPHRASE``: SHA-256 of the passphrase."""
+    return hashlib.sha256(passphrase.encode()).digest()
+
+
+def read_key_file(path: str) -> str:
+    """The passphrase on the first line of a key file."""
+    with open(path, encoding="utf-8") as f:
+        line = f.readline().strip()
+    if not line:
+        raise LinkError("key file %s is empty: put the signing passphrase on its first line" % path)
+    return line
+
+
+def _is_serial(master: str) -> bool:
+    return ":" not in master.split(",")[0] and not master.endswith(".tlog")
+
+
+def _open_error(master: str, exc: BaseException) -> LinkError:
+    text = str(exc)
+    code = getattr(exc, "errno", None)
+    path = master.split(",")[0]
+    if code == errno.ENOENT or "No such file" in text or "[Errno 2]" in text:
+        return LinkError("no such port %s: is the radio plugged in? (roboray-ground ports lists them)" % path)
+    if code in (errno.EACCES, errno.EPERM) or "Permission denied" in text or "[Errno 13]" in text:
+        return LinkError("permission denied on %s: add your user to the dialout group (then log in again)" % path)
+    if code == errno.EBUSY or "busy" in text.lower() or "[Errno 16]" in text:
+        return LinkError("port %s is busy: another program (MAVProxy, a ground station) has it open" % path)
+    if "Address already in use" in text:
+        return LinkError("cannot listen on %s: the address is in use" % master)
+    return LinkError("cannot open %s: %s" % (master, text.splitlines()[0] if text else type(exc).__name__))
+
+
+class Link:
+    """One connection to the vehicle.
+
+    Parameters
+    ----------
+    master:
+        pymavlink connection string.
+    baud:
+        Serial baud rate (ignored for network links; ``PATH,BAUD`` wins).
+    source_system:
+        Our MAVLink system id (255 like MAVProxy).
+    key:
+        32-byte signing key, or None.
+    """
+
+    def __init__(self, master: str, baud: int = DEFAULT_BAUD, source_system: int = 255,
+                 key: Optional[bytes] = None) -> None:
+        os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2, signing
+        from pymavlink import mavutil
+
+        mavutil.set_dialect("common")
+        self.master = master
+        self.baud = baud
+        if _is_serial(master) and "," in master:
+            try:
+                self.baud = int(master.split(",", 1)[1])
+            except ValueError:
+                raise LinkError("bad baud rate in %r: expected PATH,BAUD" % master)
+        if _is_serial(master) and not os.path.exists(master.split(",")[0]):
+            raise _open_error(master, FileNotFoundError(errno.ENOENT, "No such file"))
+        try:
+            self.conn: Any = mavutil.mavlink_connection(
+                master, baud=self.baud, source_system=source_system,
+                source_component=GCS_COMPONENT, autoreconnect=False)
+        except Exception as exc:  # pyserial, socket and pymavlink errors
+            raise _open_error(master, exc) from exc
+        self.mav = self.conn.mav
+        self.mav.robust_parsing = True
+        self.key = key
+        if key is not None:
+            self.conn.setup_signing(key, sign_outgoing=True)
+        self.target_system = 1
+        self.target_component = 1
+        self.texts: list[str] = []
+        self.on_message: Optional[Callable[[Any], None]] = None
+        self._last_gcs_hb = 0.0
+
+    # ------------------------------------------------------------ basics
+    def describe(self) -> str:
+        return "%s at %d baud" % (self.master, self.baud) if _is_serial(self.master) else self.master
+
+    def close(self) -> None:
+        try:
+            self.conn.close()
+        except Exception:  # noqa: BLE001 - closing a dead port
+            pass
+
+    def heartbeat(self, force: bool = False) -> None:
+        """Our GCS heartbeat, at most once a second unless forced."""
+        now = time.monotonic()
+        if force or now - self._last_gcs_hb >= 1.0:
+            self._last_gcs_hb = now
+            self.mav.heartbeat_send(6, 8, 0, 0, 0)  # MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID
+
+    def recv(self, timeout: float) -> Any:
+        """Next message (or None after ``timeout`` s); keeps our heartbeat going."""
+        self.heartbeat()
+        try:
+            m = self.conn.recv_match(blocking=True, timeout=timeout)
+        except OSError as exc:
+            raise LinkError("lost %s: %s" % (self.describe(), exc)) from exc
+        except Exception as exc:  # pyserial's SerialException on a vanished port
+            if type(exc).__name__ == "SerialException":
+                raise LinkError("lost %s: %s" % (self.describe(), exc)) from exc
+            raise
+        if m is None or m.get_type() == "BAD_DATA":
+            return None
+        if m.get_type() == "STATUSTEXT":
+            self.texts.append(m.text)
+        if self.on_message is not None:
+            self.on_message(m)
+        return m
+
+    def wait_heartbeat(self, timeout: float = 5.0) -> Any:
+        """The vehicle's heartbeat; sets the target ids. LinkError after ``timeout``."""
+        self.heartbeat(force=True)
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            m = self.recv(min(0.5, max(0.01, end - time.monotonic())))
+            if m is not None and m.get_type() == "HEARTBEAT" and m.type != 6:
+                self.target_system = m.get_srcSystem()
+                self.target_component = m.get_srcComponent()
+                return m
+        hint = "check the radio is powered and paired, the baud rate (--baudrate)"
+        if self.key is not None:
+            hint += " and that the vehicle has the same signing key"
+        raise LinkError("no heartbeat on %s within %g s: %s" % (self.describe(), timeout, hint))
+
+    def wait(self, accept: Callable[[Any], bool], timeout: float) -> Any:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            m = self.recv(min(0.2, max(0.01, end - time.monotonic())))
+            if m is not None and accept(m):
+                return m
+        return None
+
+    # ---------------------------------------------------------- commands
+    def command(self, command: int, params: tuple = (0, 0, 0, 0, 0, 0, 0), timeout: float = 3.0,
+                retries: int = 3, name: str = "command") -> Any:
+        """Send COMMAND_LONG until its COMMAND_ACK; LinkError when refused or silent."""
+        p = list(params) + [0.0] * (7 - len(params))
+        self.texts.clear()
+        for attempt in range(retries):
+            self.mav.command_long_send(self.target_system, self.target_component, command, attempt, *p)
+            ack = self.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == command,
+                            timeout / retries)
+            if ack is not None:
+                if ack.result != 0:
+                    self.wait(lambda m: m.get_type() == "STATUSTEXT", 0.3)  # the reason follows the ack
+                    raise LinkError("%s refused: %s (%s)" % (name, self.reason(ack), RESULTS.get(ack.result, ack.result)))
+                return ack
+        hint = "the vehicle may require signing (--key)" if self.key is None else "check the signing key"
+        raise LinkError("no COMMAND_ACK for %s from %s within %g s: %s" % (name, self.describe(), timeout, hint))
+
+    def reason(self, ack: Any) -> str:
+        code = getattr(ack, "result_param2", 0)
+        if 0 < code < len(vehicle_modes.REASONS):
+            return vehicle_modes.REASONS[code]
+        if self.texts:
+            return self.texts[-1]
+        return "no reason given"
+
+    # -------------------------------------------------------- parameters
+    def param_list(self, timeout: float = 10.0) -> dict[str, tuple[float, int]]:
+        """Every parameter as name -> (value, MAV_PARAM_TYPE); missing ones re-read by index."""
+        self.mav.param_request_list_send(self.target_system, self.target_component)
+        got: dict[int, tuple[str, float, int]] = {}
+        count = -1
+        end = time.monotonic() + timeout
+        quiet_since = time.monotonic()
+        while time.monotonic() < end:
+            m = self.recv(0.2)
+            if m is not None and m.get_type() == "PARAM_VALUE":
+                count = m.param_count
+                got[m.param_index] = (m.param_id, m.param_value, m.param_type)
+                quiet_since = time.monotonic()
+                if len(got) >= count:
+                    break
+            elif count > 0 and time.monotonic() - quiet_since > 0.5:
+                for i in range(count):
+                    if i not in got:
+                        self.mav.param_request_read_send(self.target_system, self.target_component, b"", i)
+                quiet_since = time.monotonic()
+        if count < 0:
+            raise LinkError("no parameters from %s within %g s" % (self.describe(), timeout))
+        if len(got) < count:
+            raise LinkError("got %d of %d parameters from %s within %g s" % (len(got), count, self.describe(), timeout))
+        return {name: (value, ptype) for name, value, ptype in (got[i] for i in sorted(got))}
+
+    def param_get(self, name: str, timeout: float = 3.0) -> tuple[float, int]:
+        for _ in range(3):
+            self.mav.param_request_read_send(self.target_system, self.target_component, name.encode(), -1)
+            m = self.wait(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout / 3)
+            if m is not None:
+                return m.param_value, m.param_type
+        raise LinkError("no parameter %s on the vehicle (no answer within %g s)" % (name, timeout))
+
+    def param_set(self, name: str, value: float, ptype: Optional[int] = None, timeout: float = 3.0) -> float:
+        """Set and wait for the echo; LinkError with the vehicle's reason when refused."""
+        if ptype is None:
+            _, ptype = self.param_get(name)
+        if not math.isfinite(value):
+            raise LinkError("%s: %r is not a finite number" % (name, value))
+        self.texts.clear()
+        for _ in range(3):
+            self.mav.param_set_send(self.target_system, self.target_component, name.encode(), value, ptype)
+            m = self.wait(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout / 3)
+            if m is not None:
+                if not _same_f32(m.param_value, value):
+                    self.wait(lambda m: m.get_type() == "STATUSTEXT", 0.3)
+                    why = self.texts[-1] if self.texts else "refused"
+                    raise LinkError("%s not set to %s: %s (value stays %s)" % (name, fmt_value(value, ptype), why,
+                                                                               fmt_value(m.param_value, ptype)))
+                return m.param_value
+        raise LinkError("no answer to setting %s within %g s" % (name, timeout))
+
+
+def _same_f32(a: float, b: float) -> bool:
+    import struct
+
+    return struct.pack("<f", a) == struct.pack("<f", b)
+
+
+def fmt_value(value: float, ptype: int) -> str:
+    """A parameter value as text: integers without a decimal point."""
+    if ptype != 9 and float(value).is_integer():
+        return "%d" % int(value)
+    return "%.7g" % value
