@@ -93,6 +93,14 @@ class Parser:
         self._last = array("B", bytearray(_SOURCES))
         self._next_src = 0
 
+    def reset(self):
+        """Forget any partial frame (counters stay)."""
+        self._n = 0
+        self._need = 1
+        self._flen = 0
+        self._drop = 0
+        self.ready = False
+
     # ------------------------------------------------------------- feeding
     def feed(self, data, start=0, end=-1):
         """Consume ``data[start:end]`` until a frame is ready; the index reached."""
@@ -199,7 +207,9 @@ class Parser:
                     self._reject()
                     continue
                 plen = buf[1]
-                if (plen > entry[3]) if hdr == _HEADER_V2 else (plen != entry[2]):
+                # MAVLink 2 may truncate; MAVLink 1 carries the base fields, and
+                # pymavlink adds the extensions to its MAVLink 1 frames: accept both.
+                if plen > entry[3] or (hdr == _HEADER_V1 and plen < entry[2]):
                     self.bad_header += 1
                     self._reject()
                     continue
