@@ -67,7 +67,9 @@ def build(n_inputs: int, seed: int = 2024):
             valid.append(f)
         elif kind == 2:  # a truncated frame, then a valid frame
             bad = frame()
-            out += bad[:rng.randrange(1, len(bad))]
+            # cut at least two bytes short: one byte short, the next start byte
+            # would complete a valid checksum one time in 256 (a real frame then)
+            out += bad[:rng.randrange(1, len(bad) - 1)]
             damaged += 1
             f = frame()
             out += f
