@@ -1,20 +1,99 @@
-"""``roboray-flash``: build the board code and put it on a board."""
+"""``roboray-flash``: build the board code and put it on a board.
+
+- ``build``: compile ``shared/`` and ``firmware/`` for the RP2350 (:mod:`.build`);
+- ``deploy``: bring a board to the build, verified, safe to interrupt (:mod:`.deploy`);
+- ``status``: what the board holds against the build;
+- ``virtual-board``: a MicroPython board on a pseudo-terminal, for trying all of it.
+"""
 
 from __future__ import annotations
 
 import argparse
 import signal
 import sys
+from pathlib import Path
 from typing import Optional, Sequence
 
-from roboray.tools.cli import command, make_parser, run
+from roboray.tools.cli import add_json, command, emit, make_parser, positive, run
+
+
+def _build(args: argparse.Namespace):
+    from .build import build
+
+    return build(out_dir=args.out, source=args.source, src_root=args.src)
+
+
+def do_build(args: argparse.Namespace) -> None:
+    """Compile the board code into the build folder, incrementally."""
+    result = _build(args)
+    emit(args, result.summary(), lambda s: (
+        "%s\n%d files, %d bytes in %s/board (%d compiled, %d unchanged, %d removed)"
+        % (s["banner"], s["files"], s["bytes"], s["out"], s["compiled"], s["reused"], s["removed"])))
+
+
+def _board(args: argparse.Namespace):
+    from .board import Board
+    from .ports import pick
+
+    return Board(pick(args.port), timeout_s=args.timeout)
+
+
+def do_deploy(args: argparse.Namespace) -> None:
+    """Build if needed, then bring the board to the build."""
+    from .deploy import deploy
+
+    result = _build(args)
+    with _board(args) as board:
+        report = deploy(board, result, dry_run=args.dry_run, rehash=args.rehash,
+                        reset=not args.no_reset, start_timeout_s=args.start_timeout)
+    emit(args, report, _deploy_text)
+
+
+def _deploy_text(r: dict) -> str:
+    if r["dry_run"]:
+        head = "dry run on %s: would copy %d file(s) (%d B), remove %d, keep %d; nothing changed" % (
+            r["port"], r["files_copied"], r["bytes_to_send"], r["files_removed"], r["files_unchanged"])
+        return "\n".join([head] + ["  copy   " + p for p in r["copied"]] + ["  remove " + p for p in r["removed"]])
+    lines = ["%s: copied %d file(s) (%d B), removed %d, unchanged %d, all verified, %.1f s" % (
+        r["port"], r["files_copied"], r["bytes_sent"], r["files_removed"], r["files_unchanged"], r["seconds"])]
+    if "app_state" in r:
+        lines.append("started: %s (%s)" % (r["banner"], r["app_state"]))
+        lines += ["  | " + ln for ln in r["app_output"].splitlines()[1:]]
+    return "\n".join(lines)
+
+
+def do_status(args: argparse.Namespace) -> None:
+    """Compare the board's files with the build (hashed on the board)."""
+    from .deploy import status
+
+    result = _build(args)
+    with _board(args) as board:
+        report = status(board, result)
+    emit(args, report, _status_text)
+
+
+def _status_text(r: dict) -> str:
+    b = r["board"]
+    lines = [
+        "board %s: %s" % (r["port"], b.get("banner") or b["manifest"])
+        + ("" if b.get("complete", True) else " (last deployment did not finish)"),
+        "build: %s (%d files)" % (r["build"]["banner"], r["build"]["files"]),
+        "%d file(s) the same, %d differ, %d missing, %d to remove; %d kB free"
+        % (r["same"], len(r["differ"]), len(r["missing"]), len(r["extra"]), r["free_bytes"] // 1024),
+    ]
+    lines += ["  differs  " + p for p in r["differ"]]
+    lines += ["  missing  " + p for p in r["missing"]]
+    lines += ["  extra    " + p for p in r["extra"]]
+    lines.append("up to date" if r["up_to_date"] else "not up to date: roboray-flash deploy")
+    return "\n".join(lines)
 
 
 def do_virtual_board(args: argparse.Namespace) -> None:
     """Serve a MicroPython board on a pseudo-terminal until interrupted."""
-    from roboray.tools.micropython.virtual_board import VirtualBoard
+    from roboray.tools.micropython.virtual_board import VirtualBoard, twin_modules_dir
 
-    board = VirtualBoard(fs_dir=args.fs).start()
+    modules = None if args.bare else args.modules or twin_modules_dir()
+    board = VirtualBoard(fs_dir=args.fs, flash_bytes=int(args.flash_kb * 1024), modules_dir=modules).start()
     # The device path is the first line, so scripts can read it and connect.
     sys.stdout.write(board.device + "\n")
     sys.stdout.flush()
@@ -29,11 +108,52 @@ def do_virtual_board(args: argparse.Namespace) -> None:
         raise SystemExit("virtual board interpreter exited with status %d" % status)
 
 
+def _build_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, metavar="DIR",
+                   help="build folder (default: build/flash in a checkout, else ~/.cache/roboray/flash-build)")
+    p.add_argument("--source", action="store_true", help="copy .py files instead of compiling them with mpy-cross")
+    p.add_argument("--src", type=Path, metavar="DIR",
+                   help="take the board code from DIR/shared and DIR/firmware (default: this installation's)")
+
+
+def _board_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--port", default="auto",
+                   help="serial port of the board, or 'auto' to find a Pico 2 by its USB vendor id (default)")
+    p.add_argument("--timeout", type=positive, default=10.0, metavar="S",
+                   help="seconds the board may stay silent before it counts as not answering (default 10)")
+
+
 def build_parser():
     parser, sub = make_parser("roboray-flash", "Build the RoboRay board code and deploy it to a board.")
+    p = command(sub, "build", do_build, "compile the board code for the RP2350 and write its manifest")
+    _build_options(p)
+    add_json(p)
+
+    p = command(sub, "deploy", do_deploy,
+                "copy what differs to the board, verified and safe to interrupt, then restart it")
+    _board_options(p)
+    _build_options(p)
+    p.add_argument("--dry-run", action="store_true", help="say what would change, change nothing")
+    p.add_argument("--rehash", action="store_true", help="trust no manifest: hash every file on the board")
+    p.add_argument("--no-reset", action="store_true", help="leave the board at its REPL instead of restarting it")
+    p.add_argument("--start-timeout", type=positive, default=10.0, metavar="S",
+                   help="seconds to wait for the application's start-up line after the reset (default 10)")
+    add_json(p)
+
+    p = command(sub, "status", do_status, "compare the board's files with the build")
+    _board_options(p)
+    _build_options(p)
+    add_json(p)
+
     p = command(sub, "virtual-board", do_virtual_board,
                 "serve a MicroPython board on a pseudo-terminal (prints its device path first)")
     p.add_argument("--fs", metavar="DIR", help="keep the board's file system in DIR (survives restarts)")
+    p.add_argument("--flash-kb", type=positive, default=3072, metavar="KB",
+                   help="flash size os.statvfs reports (default 3072, a Pico 2's)")
+    p.add_argument("--modules", metavar="DIR",
+                   help="offer the modules in DIR like built-in ones (default: the twin's emulated "
+                        "machine under sim/twin/, when it exists)")
+    p.add_argument("--bare", action="store_true", help="offer no emulated built-in modules")
     return parser
 
 

@@ -10,12 +10,18 @@
 //       {"op": "reply"} line, which is how the twin steps the dynamics in
 //       lockstep with the firmware.
 //
-//   node host.mjs repl <micropython.mjs> <fs_dir> [heap_bytes]
+//   node host.mjs repl <micropython.mjs> <fs_dir> [heap_bytes] [options_json]
 //       Raw bytes: stdin is the board's USB serial input, stdout its output.
 //       Used behind a pseudo-terminal by the virtual board (virtual_board.py),
 //       which handles the port's quirks on the byte stream. The file system
 //       is loaded from fs_dir at start and written back after every input
 //       chunk, so it outlives a restart like a board's flash does.
+//       options_json (all optional):
+//         interrupt_fd  a non-blocking pipe on which the host signals Ctrl-C
+//                       while Python runs (see "Ctrl-C" below);
+//         flash_bytes   capacity os.statvfs reports, as a board's flash does;
+//         modules_dir   host folder of modules the board offers like built-in
+//                       ones (the twin's machine), outside the synced flash.
 //
 // Everything is synchronous on purpose: MicroPython runs on this thread, so
 // reading stdin with fs.readSync is the only way to answer a request made
@@ -191,13 +197,69 @@ function pruneTree(hostDir, seen) {
   }
 }
 
+// A board's statvfs: littlefs with 4 kB blocks, two blocks of superblock,
+// two of metadata a folder and at least one a file. An approximation of
+// littlefs's real usage (it inlines tiny files), close enough to check
+// that a deployment fits.
+const BLOCK = 4096;
+
+function usedBlocks(mp, dir, skip) {
+  let blocks = 2;
+  for (const name of mp.FS.readdir(dir)) {
+    if (name === "." || name === ".." || (skip && skip.has(name))) continue;
+    const p = path.posix.join(dir, name);
+    const st = mp.FS.stat(p);
+    if (mp.FS.isDir(st.mode)) blocks += usedBlocks(mp, p, null);
+    else blocks += Math.max(1, Math.ceil(st.size / BLOCK));
+  }
+  return blocks;
+}
+
+// Ctrl-C. MicroPython here runs synchronously on Node's only thread, so a
+// running program never returns to read stdin; a board would see Ctrl-C in
+// its USB interrupt. The virtual board therefore also writes every Ctrl-C to
+// a side pipe, and this hook, called whenever MicroPython reads its clock
+// (ticks_ms, sleep_ms, file times: any real main loop does), polls that
+// pipe at most every 10 ms and schedules a KeyboardInterrupt as a board's
+// USB handler does. It polls only while Python runs (`state.running`), and
+// signals left from idle times are dropped before each input chunk is
+// processed, so only a Ctrl-C sent while code runs raises.
+function installInterrupt(M, fd, state) {
+  const realNow = Date.now.bind(Date);
+  const buf = Buffer.alloc(64);
+  let last = 0;
+  const drain = () => {
+    let hit = false;
+    for (;;) {
+      let n = 0;
+      try { n = fs.readSync(fd, buf, 0, buf.length, null); } catch (e) { return hit; }
+      if (n <= 0) return hit;
+      hit = true;
+    }
+  };
+  Date.now = () => {
+    const t = realNow();
+    if (state.running && t - last >= 10) {
+      last = t;
+      if (drain()) M._mp_sched_keyboard_interrupt();
+    }
+    return t;
+  };
+  return drain;
+}
+
 async function replMode() {
   const fsDir = process.argv[4];
   const heap = parseInt(process.argv[5] || "8388608", 10);
+  const options = JSON.parse(process.argv[6] || "{}");
   // The board's flash is the root, as on rp2; Emscripten's own folders are
   // not part of it and are never synced.
   const ROOT = "/";
   const SYSTEM = new Set(["tmp", "home", "dev", "proc"]);
+  // Built-in modules the board offers (the twin's machine) live here, on
+  // the import path but outside the synced flash, as a board's frozen
+  // modules are.
+  const BUILTINS = "/home/roboray";
   const mp = await loadMicroPython({
     heapsize: heap,
     linebuffer: false,
@@ -206,6 +268,17 @@ async function replMode() {
   });
   const M = mp._module;
   loadTree(mp, fsDir, ROOT);
+  if (options.modules_dir) {
+    mp.FS.mkdirTree(BUILTINS);
+    loadTree(mp, options.modules_dir, BUILTINS);
+  }
+  const state = { running: false };
+  const dropInterrupts = options.interrupt_fd !== undefined
+    ? installInterrupt(M, options.interrupt_fd, state) : () => false;
+  const running = (fn) => {
+    state.running = true;
+    try { return fn(); } finally { state.running = false; }
+  };
 
   const sync = () => {
     const seen = new Set();
@@ -213,19 +286,40 @@ async function replMode() {
     pruneTree(fsDir, seen);
   };
 
+  // Per VM: what a board has built in. Registered again after each soft
+  // reboot, which clears the VM's module table.
+  const builtins = () => {
+    let code = "";
+    if (options.flash_bytes) {
+      const total = Math.floor(options.flash_bytes / BLOCK);
+      mp.registerJsModule("_vboard", { used: () => usedBlocks(mp, ROOT, SYSTEM) });
+      code +=
+        "import _vboard\n" +
+        "def _statvfs(path, _used=_vboard.used):\n" +
+        "    os.stat(path)\n" +
+        "    free = max(0, " + total + " - _used())\n" +
+        "    return (" + BLOCK + ", " + BLOCK + ", " + total + ", free, free, 0, 0, 0, 0, 255)\n" +
+        "os.statvfs = _statvfs\n" +
+        "del _statvfs, _vboard, sys.modules['_vboard']\n";
+    }
+    if (options.modules_dir) code += "sys.path.insert(0, '" + BUILTINS + "')\n";
+    return code;
+  };
+
   // Boot the way a board does: cwd on the flash, boot.py, then main.py
   // unless the REPL is raw (a host tool is driving it).
   const boot = (rawMode) => {
     mp.runPython(
       "import os, sys\nos.chdir('" + ROOT + "')\n" +
-      "sys.path.clear()\nsys.path.extend(['', '.frozen', '/lib'])\n"
+      "sys.path.clear()\nsys.path.extend(['', '.frozen', '/lib'])\n" + builtins() +
+      "del os, sys\n"
     );
     for (const script of rawMode ? ["boot.py"] : ["boot.py", "main.py"]) {
       let exists = true;
       try { mp.FS.stat(path.posix.join(ROOT, script)); } catch (e) { exists = false; }
       if (!exists) continue;
       try {
-        mp.runPython("exec(open('" + script + "').read(), {'__name__': '__main__'})");
+        running(() => mp.runPython("exec(open('" + script + "').read(), {'__name__': '__main__'})"));
       } catch (e) {
         writeAll(Buffer.from(String(e.message).replace(/\r?\n/g, "\r\n"), "utf8"));
       }
@@ -238,10 +332,11 @@ async function replMode() {
   for (;;) {
     const chunk = readChunk();
     if (chunk === null) break;
+    dropInterrupts();
     for (const c of chunk) {
       if (c === 1) raw = true;       // Ctrl-A: raw REPL
       else if (c === 2) raw = false; // Ctrl-B: friendly REPL
-      const r = mp.replProcessChar(c);
+      const r = running(() => mp.replProcessChar(c));
       if (r & 256) {
         // PYEXEC_FORCED_EXIT: Ctrl-D asked for a soft reset, which this port
         // leaves to its host. Re-initialise the VM on the same file system.

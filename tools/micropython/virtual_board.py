@@ -14,12 +14,24 @@ mends, at the byte stream, the three ways the port differs from a board
 - file errors carry Emscripten's errno numbers (``OSError: 44``): we rewrite
   them to the numbers and names a board prints (``[Errno 2] ENOENT``).
 
+It also behaves like a board where a host tool relies on it:
+
+- Ctrl-C interrupts a running program (``main.py``'s loop), so tools reach
+  the REPL as on a board: every Ctrl-C also goes down a side pipe that the
+  interpreter polls whenever the program reads its clock (``host.mjs``);
+- ``os.statvfs`` reports a flash of ``flash_bytes`` (a Pico 2's 3 MiB by
+  default) and what the files use of it, so free-space checks mean something;
+- ``modules_dir`` offers modules the way firmware has them built in (the
+  twin's emulated ``machine``): importable, first on ``sys.path``, but
+  outside the board's visible and synced file system (``/home/roboray``).
+
 The file system is a host folder (``fs_dir``), mirrored after every input
 chunk, so it survives a restart of the virtual board like flash does.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import select
@@ -43,10 +55,31 @@ EMSCRIPTEN_ERRNO = {
     73: (110, "ETIMEDOUT"), 138: (95, "EOPNOTSUPP"),
 }
 
+#: Flash a Pico 2 (RPI_PICO2) gives its file system: 4 MiB less 1 MiB of firmware.
+PICO2_FLASH_BYTES = 3 * 1024 * 1024
+
 _RAW_PASTE_REQUEST = b"\x05A\x01"
 _RAW_PASTE_UNSUPPORTED = b"R\x00"
 _OSERROR = re.compile(rb"OSError: (\d+)(?=\r?\n)")
 _HOLD = re.compile(rb"O(S(E(r(r(o(r(:( \d*)?)?)?)?)?)?)?)?\r?$")
+
+
+def twin_modules_dir() -> Optional[Path]:
+    """Folder of the twin's emulated built-in modules (``machine``), if it exists.
+
+    The simulator twin (``sim/twin/``) writes MicroPython code standing in for
+    the firmware's built-in modules; the virtual board offers it with
+    ``modules_dir`` so a deployed application finds ``machine`` as on a
+    board. None while no ``machine.py`` exists there.
+    """
+    import importlib.util
+
+    spec = importlib.util.find_spec("roboray.sim")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    twin = Path(list(spec.submodule_search_locations)[0]) / "twin"
+    found = sorted(p for p in twin.rglob("machine.py") if "__pycache__" not in p.parts) if twin.is_dir() else []
+    return found[0].parent if found else None
 
 
 def _board_errno(match: "re.Match[bytes]") -> bytes:
@@ -65,13 +98,33 @@ class VirtualBoard:
     fs_dir:
         Host folder holding the board's file system. A temporary folder,
         removed on close, when not given.
+    flash_bytes:
+        Capacity ``os.statvfs('/')`` reports; None keeps the interpreter's
+        own (meaningless) figures.
+    modules_dir:
+        Host folder of ``.py`` modules offered like built-in ones.
     """
 
-    def __init__(self, fs_dir: Optional[os.PathLike | str] = None, heap_bytes: int = 8 * 1024 * 1024) -> None:
+    def __init__(
+        self,
+        fs_dir: Optional[os.PathLike | str] = None,
+        heap_bytes: int = 8 * 1024 * 1024,
+        flash_bytes: Optional[int] = PICO2_FLASH_BYTES,
+        modules_dir: Optional[os.PathLike | str] = None,
+    ) -> None:
+        if flash_bytes is not None and flash_bytes < 16 * 4096:
+            raise ValueError("flash_bytes must be at least 64 KiB, got %r" % flash_bytes)
+        if modules_dir is not None and not Path(modules_dir).is_dir():
+            raise ValueError("modules_dir %s is not a folder" % modules_dir)
         self._own_dir = fs_dir is None
         self.fs_dir = Path(fs_dir) if fs_dir is not None else Path(tempfile.mkdtemp(prefix="roboray-board-"))
         self.fs_dir.mkdir(parents=True, exist_ok=True)
         self.heap_bytes = heap_bytes
+        self.flash_bytes = flash_bytes
+        self.modules_dir = Path(modules_dir) if modules_dir is not None else None
+        self._intr_r, self._intr_w = os.pipe()
+        os.set_blocking(self._intr_r, False)
+        os.set_blocking(self._intr_w, False)
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)
         #: Path host tools open, like /dev/ttyACM0.
@@ -87,11 +140,19 @@ class VirtualBoard:
 
     # -------------------------------------------------------------- lifetime
     def start(self) -> "VirtualBoard":
+        options: dict = {"interrupt_fd": self._intr_r}
+        if self.flash_bytes is not None:
+            options["flash_bytes"] = self.flash_bytes
+        if self.modules_dir is not None:
+            options["modules_dir"] = str(self.modules_dir.resolve())
         self._proc = subprocess.Popen(
             [node_executable(), str(host_script()), "repl", str(interpreter_module()),
-             str(self.fs_dir), str(self.heap_bytes)],
+             str(self.fs_dir), str(self.heap_bytes), json.dumps(options)],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, bufsize=0,
+            pass_fds=(self._intr_r,),
         )
+        os.close(self._intr_r)
+        self._intr_r = -1
         for target in (self._pump_in, self._pump_out):
             t = threading.Thread(target=target, daemon=True)
             t.start()
@@ -111,7 +172,7 @@ class VirtualBoard:
                 proc.wait()
         for t in self._threads:
             t.join(timeout=2)
-        for fd in (self._master, self._slave):
+        for fd in (self._master, self._slave, self._intr_r, self._intr_w):
             try:
                 os.close(fd)
             except OSError:
@@ -168,7 +229,14 @@ class VirtualBoard:
                 if _RAW_PASTE_REQUEST.startswith(tail):  # split across reads
                     self._in_pending = tail
                     break
-            if c == 0x01:
+            if c == 0x03:
+                # Before the byte itself reaches stdin: the interpreter drops
+                # signals that arrive while it is idle (host.mjs).
+                try:
+                    os.write(self._intr_w, b"\x03")
+                except OSError:
+                    pass
+            elif c == 0x01:
                 self._raw = True
             elif c == 0x02:
                 self._raw = False
