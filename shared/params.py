@@ -94,6 +94,8 @@ class ParamTable:
         self._default = array("f", [0.0] * n)
         self._min = array("f", [0.0] * n)
         self._max = array("f", [0.0] * n)
+        self._imin = array("l", [0] * n)  # integer limits: compared without boxing a float
+        self._imax = array("l", [0] * n)
         self._ival = array("l", [0] * n)   # integer types: exact
         self._fval = array("f", [0.0] * n)  # REAL32
         self._index = {}
@@ -123,6 +125,9 @@ class ParamTable:
             self._default[i] = default
             self._min[i] = lo
             self._max[i] = hi
+            if ptype != TYPE_REAL32:
+                self._imin[i] = int(lo)
+                self._imax[i] = int(hi)
             self._index[name] = i
             b = self._bnames[i]
             h = _hash(b, 0, len(b))
@@ -207,9 +212,10 @@ class ParamTable:
         return self.set(i, value)
 
     def _store(self, i, value):
-        if not isinstance(value, (int, float)) or isinstance(value, bool):
+        t = type(value)
+        if t is not int and t is not float:
             return ERR_TYPE
-        if value - value != 0:  # NaN or infinite
+        if t is float and value - value != 0:  # NaN or infinite
             return ERR_TYPE
         if self._types[i] == TYPE_REAL32:
             if value < self._min[i] or value > self._max[i]:
@@ -219,7 +225,7 @@ class ParamTable:
             iv = int(value)
             if iv != value:
                 return ERR_TYPE
-            if iv < self._min[i] or iv > self._max[i]:
+            if iv < self._imin[i] or iv > self._imax[i]:
                 return ERR_RANGE
             self._ival[i] = iv
         self.version += 1
