@@ -11,6 +11,8 @@ from roboray.tools.cli import make_parser, run
 #: to the top level and to ``roboray-sim bench``.
 TOPICS = (
     "roboray.sim.commands.interpreter",
+    "roboray.sim.commands.mavlink",
+    "roboray.sim.commands.flash",
 )
 
 
