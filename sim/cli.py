@@ -12,6 +12,7 @@ from roboray.tools.cli import make_parser, run
 TOPICS = (
     "roboray.sim.commands.interpreter",
     "roboray.sim.commands.mavlink",
+    "roboray.sim.commands.mavlink",
     "roboray.sim.commands.flash",
 )
 

