@@ -272,9 +272,9 @@ def test_the_firmware_starts_with_its_clear_error_without_hardware(tmp_path):
     if not (ROOT / "firmware" / "app.py").is_file():
         pytest.skip("firmware/app.py (the application, another issue) is not written yet")
     b = build(tmp_path / "out")
-    from roboray.tools.micropython.virtual_board import twin_modules_dir
+    from roboray.tools.micropython.virtual_board import twin_builtins
 
-    with VirtualBoard(fs_dir=tmp_path / "fs", modules_dir=twin_modules_dir()) as vb:
+    with VirtualBoard(fs_dir=tmp_path / "fs", modules=twin_builtins()) as vb:
         with Board(vb.device) as bd:
             report = deploy(bd, b, start_timeout_s=20)
     assert report["started"] is True and report["app_output"].splitlines()[0] == b.banner

@@ -37,12 +37,12 @@ def test_statvfs_reports_a_pico2_flash_and_what_files_use(tmp_path):
     assert empty[3] - used[3] == 3
 
 
-def test_modules_dir_is_importable_but_not_on_the_flash(tmp_path):
+def test_builtin_modules_are_importable_but_not_on_the_flash(tmp_path):
     builtins = tmp_path / "builtins"
     builtins.mkdir()
     (builtins / "machine.py").write_text("def unique_id():\n    return b'\\x01\\x02'\n")
     fs = tmp_path / "fs"
-    with VirtualBoard(fs_dir=fs, modules_dir=builtins) as board:
+    with VirtualBoard(fs_dir=fs, modules=[builtins / "machine.py"]) as board:
         t = SerialTransport(board.device, timeout=10)
         t.enter_raw_repl()
         out = t.exec("import machine, os\nprint(machine.unique_id(), os.listdir('/'))").decode()
@@ -50,5 +50,5 @@ def test_modules_dir_is_importable_but_not_on_the_flash(tmp_path):
         t.close()
     assert out.strip() == "b'\\x01\\x02' ['tmp', 'home', 'dev', 'proc']"
     assert list(fs.iterdir()) == []  # never synced to the board's flash
-    with pytest.raises(ValueError, match="modules_dir"):
-        VirtualBoard(modules_dir=tmp_path / "nowhere")
+    with pytest.raises(ValueError, match="modules: .* is not a .py file"):
+        VirtualBoard(modules=[tmp_path / "nowhere.py"])

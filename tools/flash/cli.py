@@ -9,12 +9,15 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import signal
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
 from roboray.tools.cli import add_json, command, emit, make_parser, positive, run
+
+log = logging.getLogger("roboray.flash")
 
 
 def _build(args: argparse.Namespace):
@@ -90,10 +93,12 @@ def _status_text(r: dict) -> str:
 
 def do_virtual_board(args: argparse.Namespace) -> None:
     """Serve a MicroPython board on a pseudo-terminal until interrupted."""
-    from roboray.tools.micropython.virtual_board import VirtualBoard, twin_modules_dir
+    from roboray.tools.micropython.virtual_board import VirtualBoard, twin_builtins
 
-    modules = None if args.bare else args.modules or twin_modules_dir()
-    board = VirtualBoard(fs_dir=args.fs, flash_bytes=int(args.flash_kb * 1024), modules_dir=modules).start()
+    modules = [] if args.bare else args.module or twin_builtins()
+    board = VirtualBoard(fs_dir=args.fs, flash_bytes=int(args.flash_kb * 1024), modules=modules).start()
+    if modules:
+        log.info("built-in modules: %s", ", ".join(str(m) for m in modules))
     # The device path is the first line, so scripts can read it and connect.
     sys.stdout.write(board.device + "\n")
     sys.stdout.flush()
@@ -150,9 +155,9 @@ def build_parser():
     p.add_argument("--fs", metavar="DIR", help="keep the board's file system in DIR (survives restarts)")
     p.add_argument("--flash-kb", type=positive, default=3072, metavar="KB",
                    help="flash size os.statvfs reports (default 3072, a Pico 2's)")
-    p.add_argument("--modules", metavar="DIR",
-                   help="offer the modules in DIR like built-in ones (default: the twin's emulated "
-                        "machine under sim/twin/, when it exists)")
+    p.add_argument("--module", action="append", metavar="FILE",
+                   help="offer FILE (a .py) like a built-in module; repeatable (default: the twin's "
+                        "emulated machine.py under sim/twin/, when it exists)")
     p.add_argument("--bare", action="store_true", help="offer no emulated built-in modules")
     return parser
 

@@ -20,8 +20,8 @@
 //         interrupt_fd  a non-blocking pipe on which the host signals Ctrl-C
 //                       while Python runs (see "Ctrl-C" below);
 //         flash_bytes   capacity os.statvfs reports, as a board's flash does;
-//         modules_dir   host folder of modules the board offers like built-in
-//                       ones (the twin's machine), outside the synced flash.
+//         modules       host .py files the board offers like built-in modules
+//                       (the twin's machine), outside the synced flash.
 //
 // Everything is synchronous on purpose: MicroPython runs on this thread, so
 // reading stdin with fs.readSync is the only way to answer a request made
@@ -268,9 +268,10 @@ async function replMode() {
   });
   const M = mp._module;
   loadTree(mp, fsDir, ROOT);
-  if (options.modules_dir) {
-    mp.FS.mkdirTree(BUILTINS);
-    loadTree(mp, options.modules_dir, BUILTINS);
+  const modules = options.modules || [];
+  if (modules.length) mp.FS.mkdirTree(BUILTINS);
+  for (const file of modules) {
+    mp.FS.writeFile(path.posix.join(BUILTINS, path.basename(file)), fs.readFileSync(file));
   }
   const state = { running: false };
   const dropInterrupts = options.interrupt_fd !== undefined
@@ -302,7 +303,7 @@ async function replMode() {
         "os.statvfs = _statvfs\n" +
         "del _statvfs, _vboard, sys.modules['_vboard']\n";
     }
-    if (options.modules_dir) code += "sys.path.insert(0, '" + BUILTINS + "')\n";
+    if (modules.length) code += "sys.path.insert(0, '" + BUILTINS + "')\n";
     return code;
   };
 

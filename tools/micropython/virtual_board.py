@@ -21,7 +21,7 @@ It also behaves like a board where a host tool relies on it:
   interpreter polls whenever the program reads its clock (``host.mjs``);
 - ``os.statvfs`` reports a flash of ``flash_bytes`` (a Pico 2's 3 MiB by
   default) and what the files use of it, so free-space checks mean something;
-- ``modules_dir`` offers modules the way firmware has them built in (the
+- ``modules`` offers modules the way firmware has them built in (the
   twin's emulated ``machine``): importable, first on ``sys.path``, but
   outside the board's visible and synced file system (``/home/roboray``).
 
@@ -42,7 +42,7 @@ import threading
 import time
 import tty
 from pathlib import Path
-from typing import Optional
+from typing import Iterable, Optional
 
 from .install import host_script, interpreter_module, node_executable
 
@@ -64,22 +64,22 @@ _OSERROR = re.compile(rb"OSError: (\d+)(?=\r?\n)")
 _HOLD = re.compile(rb"O(S(E(r(r(o(r(:( \d*)?)?)?)?)?)?)?)?\r?$")
 
 
-def twin_modules_dir() -> Optional[Path]:
-    """Folder of the twin's emulated built-in modules (``machine``), if it exists.
+def twin_builtins() -> list[Path]:
+    """The twin's emulated built-in modules (its ``machine.py``), if it exists.
 
     The simulator twin (``sim/twin/``) writes MicroPython code standing in for
-    the firmware's built-in modules; the virtual board offers it with
-    ``modules_dir`` so a deployed application finds ``machine`` as on a
-    board. None while no ``machine.py`` exists there.
+    the firmware's built-in ``machine``; the virtual board offers it with
+    ``modules`` so a deployed application finds ``machine`` as on a bare
+    Pico 2 (an I2C bus where nothing answers). Empty while there is none.
     """
     import importlib.util
 
     spec = importlib.util.find_spec("roboray.sim")
     if spec is None or not spec.submodule_search_locations:
-        return None
+        return []
     twin = Path(list(spec.submodule_search_locations)[0]) / "twin"
     found = sorted(p for p in twin.rglob("machine.py") if "__pycache__" not in p.parts) if twin.is_dir() else []
-    return found[0].parent if found else None
+    return found[:1]
 
 
 def _board_errno(match: "re.Match[bytes]") -> bytes:
@@ -101,8 +101,8 @@ class VirtualBoard:
     flash_bytes:
         Capacity ``os.statvfs('/')`` reports; None keeps the interpreter's
         own (meaningless) figures.
-    modules_dir:
-        Host folder of ``.py`` modules offered like built-in ones.
+    modules:
+        Host ``.py`` files offered like built-in modules, by their names.
     """
 
     def __init__(
@@ -110,18 +110,19 @@ class VirtualBoard:
         fs_dir: Optional[os.PathLike | str] = None,
         heap_bytes: int = 8 * 1024 * 1024,
         flash_bytes: Optional[int] = PICO2_FLASH_BYTES,
-        modules_dir: Optional[os.PathLike | str] = None,
+        modules: Iterable[os.PathLike | str] = (),
     ) -> None:
         if flash_bytes is not None and flash_bytes < 16 * 4096:
             raise ValueError("flash_bytes must be at least 64 KiB, got %r" % flash_bytes)
-        if modules_dir is not None and not Path(modules_dir).is_dir():
-            raise ValueError("modules_dir %s is not a folder" % modules_dir)
+        self.modules = [Path(m).resolve() for m in modules]
+        for m in self.modules:
+            if m.suffix != ".py" or not m.is_file():
+                raise ValueError("modules: %s is not a .py file" % m)
         self._own_dir = fs_dir is None
         self.fs_dir = Path(fs_dir) if fs_dir is not None else Path(tempfile.mkdtemp(prefix="roboray-board-"))
         self.fs_dir.mkdir(parents=True, exist_ok=True)
         self.heap_bytes = heap_bytes
         self.flash_bytes = flash_bytes
-        self.modules_dir = Path(modules_dir) if modules_dir is not None else None
         self._intr_r, self._intr_w = os.pipe()
         os.set_blocking(self._intr_r, False)
         os.set_blocking(self._intr_w, False)
@@ -143,8 +144,8 @@ class VirtualBoard:
         options: dict = {"interrupt_fd": self._intr_r}
         if self.flash_bytes is not None:
             options["flash_bytes"] = self.flash_bytes
-        if self.modules_dir is not None:
-            options["modules_dir"] = str(self.modules_dir.resolve())
+        if self.modules:
+            options["modules"] = [str(m) for m in self.modules]
         self._proc = subprocess.Popen(
             [node_executable(), str(host_script()), "repl", str(interpreter_module()),
              str(self.fs_dir), str(self.heap_bytes), json.dumps(options)],
