@@ -90,6 +90,7 @@ def do_status(args: argparse.Namespace) -> None:
 
     link = _connect(args)
     state = State()
+    state.update(link.vehicle_heartbeat)
     link.on_message = state.update
     try:
         end = time.monotonic() + args.listen

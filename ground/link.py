@@ -118,6 +118,7 @@ class Link:
         self.target_system = 1
         self.target_component = 1
         self.texts: list[str] = []
+        self.vehicle_heartbeat: Any = None
         self.on_message: Optional[Callable[[Any], None]] = None
         self._last_gcs_hb = 0.0
 
@@ -166,6 +167,7 @@ class Link:
             if m is not None and m.get_type() == "HEARTBEAT" and m.type != 6:
                 self.target_system = m.get_srcSystem()
                 self.target_component = m.get_srcComponent()
+                self.vehicle_heartbeat = m
                 return m
         hint = "check the radio is powered and paired, the baud rate (--baudrate)"
         if self.key is not None:

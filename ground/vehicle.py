@@ -171,9 +171,15 @@ class PtyVehicle:
         return ""
 
     def stop(self) -> None:
-        """Stop the vehicle loop; the interpreter stays usable."""
+        """Stop the vehicle loop (the radio falls silent); the interpreter stays usable."""
         self._stop.set()
         self._thread.join(timeout=30)
+
+    def resume(self) -> None:
+        """Start the loop again after ``stop()``, with the state it had."""
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
 
     def close(self) -> None:
         self.stop()

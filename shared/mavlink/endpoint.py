@@ -233,6 +233,8 @@ class Endpoint:
         pl = p.payload
         if mid == msg.MSG_HEARTBEAT:
             if p.sysid == self.params.get_int(self._p_gcs):
+                if self.gcs_last_ms < 0 or ticks_diff(self.now_ms, self.gcs_last_ms) > 2000:
+                    self._hb_due = self.now_ms  # a ground station (re)appeared: answer at once
                 self.gcs_last_ms = self.now_ms
         elif mid == msg.MSG_COMMAND_LONG:
             if self._for_us(pl[30], pl[31]):

@@ -1,0 +1,182 @@
+"""``roboray-ground`` end to end: the real CLI (a subprocess, pymavlink,
+pyserial) against the board endpoint running on MicroPython behind a
+pseudo-terminal."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from roboray.ground.vehicle import PtyVehicle
+from roboray.shared.mavlink.signing import key_from_passphrase
+
+PASSPHRASE = "deep water"
+
+
+def ground(*args: str, timeout: float = 60.0, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "roboray.ground.cli", *args],
+                          capture_output=True, text=True, timeout=timeout, **kw)
+
+
+@pytest.fixture(scope="module")
+def vehicle():
+    with PtyVehicle() as v:
+        yield v
+
+
+@pytest.fixture(scope="module")
+def signed_vehicle():
+    with PtyVehicle(key=key_from_passphrase(PASSPHRASE)) as v:
+        yield v
+
+
+def test_arm_mode_disarm(vehicle):
+    r = ground("arm", "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "armed"
+    r = ground("mode", "velocity", "--master", vehicle.device)
+    assert (r.returncode, r.stdout.strip()) == (0, "mode VELOCITY")
+    r = ground("mode", "target", "--master", vehicle.device)  # no target yet
+    assert r.returncode == 1
+    assert r.stderr.strip() == "roboray-ground: error: mode TARGET refused: no target set (temporarily rejected)"
+    r = ground("target", "2", "-1.5", "--master", vehicle.device, "--json")
+    assert r.returncode == 0 and json.loads(r.stdout) == {"command": "target", "result": "accepted"}
+    r = ground("mode", "TARGET", "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr
+    r = ground("status", "--master", vehicle.device, "--json", "--listen", "1.2")
+    status = json.loads(r.stdout)
+    assert status["mode"] == "TARGET" and status["armed"] is True and status["system"] == 1
+    r = ground("disarm", "--master", vehicle.device + ",57600")
+    assert (r.returncode, r.stdout.strip()) == (0, "disarmed")
+
+
+def test_param_get_set_and_refusals(vehicle):
+    r = ground("param", "get", "FS_GCS_TIMEOUT", "--master", vehicle.device)
+    assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 5"), r.stderr
+    r = ground("param", "set", "fs_gcs_timeout", "12.5", "--master", vehicle.device)
+    assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 12.5 (was 5)"), r.stderr
+    r = ground("param", "get", "FS_GCS_TIMEOUT", "--master", vehicle.device, "--json")
+    assert json.loads(r.stdout) == {"FS_GCS_TIMEOUT": 12.5}
+    r = ground("param", "set", "FS_GCS_TIMEOUT", "1000", "--master", vehicle.device)
+    assert r.returncode == 1 and "out of range (value stays 12.5)" in r.stderr and len(r.stderr.splitlines()) == 1
+    r = ground("param", "set", "FS_GCS_ENABLE", "abc", "--master", vehicle.device)
+    assert r.returncode == 2 and "not a number" in r.stderr
+
+
+def test_param_save_diff_load_round_trip(vehicle, tmp_path):
+    f = tmp_path / "vehicle.parm"
+    r = ground("param", "save", str(f), "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr
+    lines = f.read_text().splitlines()
+    assert any(line.split() == ["SYSID_THISMAV", "1"] for line in lines)
+    # edit the file as a person would: comment, comma form, a new value
+    text = "# tuned\n" + f.read_text().replace("FS_EKF_THRESH    0.8", "FS_EKF_THRESH,1.25")
+    f.write_text(text)
+    r = ground("param", "diff", str(f), "--master", vehicle.device, "--json")
+    assert json.loads(r.stdout) == [{"name": "FS_EKF_THRESH", "file": 1.25, "vehicle": pytest.approx(0.8)}]
+    r = ground("param", "load", str(f), "--master", vehicle.device)
+    assert r.returncode == 0 and "1 changed" in r.stdout, r.stdout + r.stderr
+    r = ground("param", "diff", str(f), "--master", vehicle.device)
+    assert r.stdout.strip() == "no differences"
+
+
+def test_signed_vehicle_obeys_only_the_key(signed_vehicle, tmp_path):
+    r = ground("arm", "--master", signed_vehicle.device, "--key", PASSPHRASE)
+    assert (r.returncode, r.stdout.strip()) == (0, "armed"), r.stderr
+    keyfile = tmp_path / "key"
+    keyfile.write_text(PASSPHRASE + "\n")
+    r = ground("param", "set", "SR_SERVO", "5", "--master", signed_vehicle.device, "--key-file", str(keyfile))
+    assert r.returncode == 0, r.stderr
+    # unsigned: the vehicle ignores the command, we say why it may be
+    r = ground("disarm", "--master", signed_vehicle.device, "--ack-timeout", "1.5")
+    assert r.returncode == 1
+    assert "no COMMAND_ACK for disarm" in r.stderr and "may require signing (--key)" in r.stderr
+    r = ground("disarm", "--master", signed_vehicle.device, "--key", "wrong", "--timeout", "2")
+    assert r.returncode == 1 and "signing key" in r.stderr
+    r = ground("status", "--master", signed_vehicle.device, "--key", PASSPHRASE, "--json", "--listen", "0.5")
+    assert json.loads(r.stdout)["armed"] is True  # still armed: the unsigned disarm did nothing
+
+
+def test_missing_port_busy_port_and_silent_port():
+    r = ground("arm", "--master", "/dev/ttyNOPE0")
+    assert r.returncode == 1
+    assert r.stderr == ("roboray-ground: error: no such port /dev/ttyNOPE0: is the radio plugged in? "
+                        "(roboray-ground ports lists them)\n")
+    master, slave = os.openpty()  # a port with nothing behind it
+    try:
+        r = ground("status", "--master", os.ttyname(slave), "--timeout", "1")
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert r.returncode == 1 and len(r.stderr.splitlines()) == 1
+    assert "no heartbeat on /dev/pts/" in r.stderr and "at 57600 baud within 1 s" in r.stderr
+    assert "baud rate (--baudrate)" in r.stderr
+    r = ground("mode", "HOVER", "--master", "/dev/ttyNOPE0")
+    assert r.returncode == 2 and "choose from DISARMED, PASSIVE" in r.stderr
+
+
+def test_log_record_dump_and_plot(vehicle, tmp_path):
+    from pymavlink import mavutil
+
+    log = tmp_path / "flight.tlog"
+    r = ground("log", "record", str(log), "--master", vehicle.device, "--duration", "2.5", "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["frames"] > 20
+    r = ground("tlog", "dump", str(log), "--json")
+    ours = [json.loads(line) for line in r.stdout.splitlines()]
+    # pymavlink reads the same file (MAVProxy's format) to the same messages
+    os.environ["MAVLINK20"] = "1"
+    mlog = mavutil.mavlink_connection(str(log), dialect="common")
+    theirs = []
+    while True:
+        m = mlog.recv_msg()
+        if m is None:
+            break
+        theirs.append((m._timestamp, m.to_dict()))
+    assert len(ours) == len(theirs) > 20
+    for a, (t, b) in zip(ours, theirs):
+        assert a["crc_ok"] is True and a["timestamp"] == pytest.approx(t, abs=1e-5)
+        assert {k: v for k, v in a.items() if k not in ("crc_ok", "timestamp")} == b
+    png = tmp_path / "flight.png"
+    r = ground("log", "plot", str(log), "--out", str(png))
+    assert r.returncode == 0, r.stderr
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_signed_tlog_dump_checks_signatures(signed_vehicle, tmp_path):
+    log = tmp_path / "signed.tlog"
+    r = ground("log", "record", str(log), "--master", signed_vehicle.device, "--key", PASSPHRASE,
+               "--duration", "1.5")
+    assert r.returncode == 0, r.stderr
+    good = [json.loads(x) for x in ground("tlog", "dump", str(log), "--key", PASSPHRASE, "--json").stdout.splitlines()]
+    assert good and all(m["signature_ok"] for m in good)
+    bad = [json.loads(x) for x in ground("tlog", "dump", str(log), "--key", "wrong", "--json").stdout.splitlines()]
+    assert len(bad) == len(good) and not any(m["signature_ok"] for m in bad) and all(m["crc_ok"] for m in bad)
+    # damage one byte of one frame: it shows as crc_ok false, the rest still read
+    data = bytearray(log.read_bytes())
+    data[8 + 12] ^= 0xFF
+    log.write_bytes(bytes(data))
+    dumped = [json.loads(x) for x in ground("tlog", "dump", str(log), "--json").stdout.splitlines()]
+    assert len(dumped) == len(good) and dumped[0]["crc_ok"] is False and all(m["crc_ok"] for m in dumped[1:])
+
+
+def test_watch_prints_lines_when_piped_and_sees_the_link_drop_and_return(vehicle):
+    proc = subprocess.Popen([sys.executable, "-m", "roboray.ground.cli", "watch", "--master", vehicle.device,
+                             "--duration", "9"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(3.0)
+    vehicle.stop()      # the vehicle falls silent...
+    time.sleep(4.0)
+    vehicle.resume()    # ...and comes back
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    lines = out.splitlines()
+    assert len(lines) >= 6 and "\x1b" not in out  # plain lines, no ANSI codes
+    states = ["lost" if "LINK LOST" in line else "ok" for line in lines if "waiting" not in line]
+    first_lost = states.index("lost")
+    assert "ok" in states[:first_lost] and "ok" in states[first_lost:]
+    assert "disarmed" in out or "ARMED" in out
