@@ -279,7 +279,7 @@ def do_watch(args: argparse.Namespace) -> None:
     from roboray.ground.watch import State, one_line, render
 
     tty = sys.stdout.isatty() and not args.plain
-    state = State()
+    state = State(lost_after_s=args.lost_after)
     link = Link(args.master, args.baudrate, args.source_system, _key(args))
     link.on_message = state.update
     end = math.inf if args.duration is None else time.monotonic() + args.duration
@@ -414,6 +414,7 @@ def build_parser():
     _link_options(p)
     p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     p.add_argument("--plain", action="store_true", help="line output even on a terminal")
+    p.add_argument("--lost-after", type=float, default=3.0, help="seconds without a heartbeat shown as link lost (default 3)")
 
     for name, handler, text in (("arm", do_arm, "arm the vehicle (DISARMED -> PASSIVE)"),
                                 ("disarm", do_disarm, "disarm the vehicle (servos to the safe position)")):

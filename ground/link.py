@@ -161,6 +161,8 @@ class Link:
     def wait_heartbeat(self, timeout: float = 5.0) -> Any:
         """The vehicle's heartbeat; sets the target ids. LinkError after ``timeout``."""
         self.heartbeat(force=True)
+        # ask for a heartbeat now rather than wait up to a second for the next one
+        self.mav.command_long_send(0, 0, 512, 0, 0, 0, 0, 0, 0, 0, 0)  # MAV_CMD_REQUEST_MESSAGE, HEARTBEAT
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             m = self.recv(min(0.5, max(0.01, end - time.monotonic())))

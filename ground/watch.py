@@ -19,7 +19,8 @@ LINK_LOST_S = 3.0
 
 
 class State:
-    def __init__(self) -> None:
+    def __init__(self, lost_after_s: float = LINK_LOST_S) -> None:
+        self.lost_after_s = lost_after_s
         self.last_hb = -math.inf
         self.first_hb = -math.inf
         self.mode = -1
@@ -91,7 +92,7 @@ class State:
 
     def link_ok(self, now: Optional[float] = None) -> bool:
         now = time.monotonic() if now is None else now
-        ok = now - self.last_hb < LINK_LOST_S
+        ok = now - self.last_hb < self.lost_after_s
         if not ok and self.last_hb > -math.inf and not self.was_lost:
             self.was_lost = True
             self.lost_links += 1

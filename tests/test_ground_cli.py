@@ -48,7 +48,7 @@ def test_arm_mode_disarm(vehicle):
     assert r.returncode == 0 and json.loads(r.stdout) == {"command": "target", "result": "accepted"}
     r = ground("mode", "TARGET", "--master", vehicle.device)
     assert r.returncode == 0, r.stderr
-    r = ground("status", "--master", vehicle.device, "--json", "--listen", "1.2")
+    r = ground("status", "--master", vehicle.device, "--json", "--listen", "0.5")
     status = json.loads(r.stdout)
     assert status["mode"] == "TARGET" and status["armed"] is True and status["system"] == 1
     r = ground("disarm", "--master", vehicle.device + ",57600")
@@ -93,10 +93,10 @@ def test_signed_vehicle_obeys_only_the_key(signed_vehicle, tmp_path):
     r = ground("param", "set", "SR_SERVO", "5", "--master", signed_vehicle.device, "--key-file", str(keyfile))
     assert r.returncode == 0, r.stderr
     # unsigned: the vehicle ignores the command, we say why it may be
-    r = ground("disarm", "--master", signed_vehicle.device, "--ack-timeout", "1.5")
+    r = ground("disarm", "--master", signed_vehicle.device, "--ack-timeout", "1")
     assert r.returncode == 1
     assert "no COMMAND_ACK for disarm" in r.stderr and "may require signing (--key)" in r.stderr
-    r = ground("disarm", "--master", signed_vehicle.device, "--key", "wrong", "--timeout", "2")
+    r = ground("disarm", "--master", signed_vehicle.device, "--key", "wrong", "--timeout", "1")
     assert r.returncode == 1 and "signing key" in r.stderr
     r = ground("status", "--master", signed_vehicle.device, "--key", PASSPHRASE, "--json", "--listen", "0.5")
     assert json.loads(r.stdout)["armed"] is True  # still armed: the unsigned disarm did nothing
@@ -124,7 +124,7 @@ def test_log_record_dump_and_plot(vehicle, tmp_path):
     from pymavlink import mavutil
 
     log = tmp_path / "flight.tlog"
-    r = ground("log", "record", str(log), "--master", vehicle.device, "--duration", "2.5", "--json")
+    r = ground("log", "record", str(log), "--master", vehicle.device, "--duration", "1.5", "--json")
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["frames"] > 20
     r = ground("tlog", "dump", str(log), "--json")
@@ -151,7 +151,7 @@ def test_log_record_dump_and_plot(vehicle, tmp_path):
 def test_signed_tlog_dump_checks_signatures(signed_vehicle, tmp_path):
     log = tmp_path / "signed.tlog"
     r = ground("log", "record", str(log), "--master", signed_vehicle.device, "--key", PASSPHRASE,
-               "--duration", "1.5")
+               "--duration", "1")
     assert r.returncode == 0, r.stderr
     good = [json.loads(x) for x in ground("tlog", "dump", str(log), "--key", PASSPHRASE, "--json").stdout.splitlines()]
     assert good and all(m["signature_ok"] for m in good)
@@ -167,10 +167,10 @@ def test_signed_tlog_dump_checks_signatures(signed_vehicle, tmp_path):
 
 def test_watch_prints_lines_when_piped_and_sees_the_link_drop_and_return(vehicle):
     proc = subprocess.Popen([sys.executable, "-m", "roboray.ground.cli", "watch", "--master", vehicle.device,
-                             "--duration", "9"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(3.0)
+                             "--duration", "6", "--lost-after", "1.5"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(2.0)
     vehicle.stop()      # the vehicle falls silent...
-    time.sleep(4.0)
+    time.sleep(2.5)
     vehicle.resume()    # ...and comes back
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err

@@ -19,7 +19,8 @@ Handled:
   (our convention, as COMMAND_LONG has no frame: param5 north, param6 east,
   param7 down in metres, MAV_FRAME_LOCAL_NED; NaN keeps a coordinate),
   PREFLIGHT_REBOOT_SHUTDOWN (param1 = 1 reboots, refused while armed),
-  SET_MESSAGE_INTERVAL (sets the matching ``SR_*`` rate). A refusal's reason
+  SET_MESSAGE_INTERVAL (sets the matching ``SR_*`` rate), REQUEST_MESSAGE
+  (the heartbeat or a telemetry stream, now). A refusal's reason
   is ``modes.REASONS.index(reason)`` in ``result_param2`` and a STATUSTEXT;
 - SET_POSITION_TARGET_LOCAL_NED (position bits) sets the target too;
 - ATT_POS_MOCAP: the position fix goes into ``fix`` ([x, y, z, qw, qx,
@@ -366,6 +367,17 @@ class Endpoint:
             rate = 0.0 if interval_us < 0 else (1e6 / interval_us if interval_us > 0 else 4.0)
             err = self.params.set(self._p_rates[k], rate)
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED if err == 0 else msg.MAV_RESULT_DENIED, err)
+        elif cmd == msg.MAV_CMD_REQUEST_MESSAGE:
+            mid = int(struct.unpack_from("<f", pl, 0)[0])
+            if mid == msg.MSG_HEARTBEAT:
+                self._hb_due = self.now_ms
+            else:
+                k = _stream_of(mid)
+                if k < 0:
+                    self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
+                    return
+                self._due_ms[k] = self.now_ms
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
         else:
             self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
 
