@@ -1,0 +1,76 @@
+"""Sensor health: what a driver saw go wrong, for the failsafes to judge.
+
+Every driver owns a ``Health`` and reports each sample attempt to it:
+``good()`` for a sample it trusts, ``bad(code)`` with the reason otherwise.
+A sensor is failed by what it does (bus errors, a CRC, impossible values,
+no fresh data), never by a value that stays the same: a vehicle resting on
+the bottom reads the same depth for minutes, and that is not a fault.
+
+``healthy()`` is True while the last good sample is younger than the
+driver's time-out and fewer than ``max_consecutive`` attempts in a row went
+wrong. Counters are small integers; nothing here allocates.
+"""
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+OK = const(0)
+ERR_BUS = const(1)        # NACK, bus time-out: the part did not answer
+ERR_CRC = const(2)        # calibration or data failed its check
+ERR_RANGE = const(3)      # a value the part cannot produce (reserved bits, out of range)
+ERR_STALE = const(4)      # no new sample where one was due
+ERR_NOT_READY = const(5)  # a conversion read before it finished (the part returned 0)
+
+#: Text for each code, for logs and STATUSTEXT.
+ERRORS = ("ok", "bus error", "CRC mismatch", "impossible value", "no fresh data", "conversion not ready")
+
+
+class Health:
+    """Counters of one sensor.
+
+    Attributes
+    ----------
+    samples, errors : int
+        Good samples and failed attempts since start-up.
+    consecutive : int
+        Failed attempts since the last good sample.
+    last_error : int
+        Code of the last failure (``OK`` if none yet).
+    counts : array('l')
+        Failures by code, indexed like ``ERRORS``.
+    """
+
+    def __init__(self, clock, timeout_ms, max_consecutive=5):
+        self._clock = clock
+        self.timeout_ms = timeout_ms
+        self.max_consecutive = max_consecutive
+        self.samples = 0
+        self.errors = 0
+        self.consecutive = 0
+        self.last_error = OK
+        self.counts = array("l", [0] * len(ERRORS))
+        self.last_good_ms = clock.ticks_ms()
+
+    def good(self):
+        self.samples += 1
+        self.consecutive = 0
+        self.last_good_ms = self._clock.ticks_ms()
+
+    def bad(self, code):
+        self.errors += 1
+        self.consecutive += 1
+        self.counts[code] += 1
+        self.last_error = code
+
+    def age_ms(self):
+        """Milliseconds since the last good sample (or since start-up)."""
+        return self._clock.ticks_diff(self._clock.ticks_ms(), self.last_good_ms)
+
+    def healthy(self):
+        return (self.samples > 0 and self.consecutive < self.max_consecutive
+                and self.age_ms() <= self.timeout_ms)

@@ -1,0 +1,164 @@
+"""LSM6DSOX accelerometer and gyroscope on I2C (ST, DS12814).
+
+Configured as the estimator expects: accelerometer +-4 g (0.122 mg/LSB),
+gyroscope +-500 dps (17.50 mdps/LSB), both at 208 Hz, block data update on,
+register auto-increment on. ``read()`` is one 16-byte burst from
+``STATUS_REG`` (0x1E) through ``OUTZ_H_A`` (0x2D) into a buffer made once,
+decoded with shifts and scaled to SI in the sensor's axes:
+
+- ``accel`` (m/s^2, specific force: +9.81 on z lying flat), ``gyro``
+  (rad/s), ``temp_c`` (C, refreshed when the chip flags a new one);
+- ``raw``: the counts [temp, gx, gy, gz, ax, ay, az], for code that folds
+  the scale into its own arithmetic (``ACCEL_SCALE``, ``GYRO_SCALE``).
+
+A read boxes six floats (seven with a new temperature) and nothing else.
+``health`` gets a bus error, a status byte with its reserved bits set or a
+temperature outside the part's range (impossible values), or no new sample
+(stale). After 10 failed reads in a row the driver writes its configuration
+again, which brings back a part that reset itself on a supply dip.
+"""
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
+
+ADDRESS = const(0x6A)
+
+_WHO_AM_I = const(0x0F)
+_CTRL1_XL = const(0x10)
+_CTRL2_G = const(0x11)
+_CTRL3_C = const(0x12)
+_STATUS_REG = const(0x1E)
+_ID = const(0x6C)
+
+_SW_RESET = const(0x01)
+_XL_208HZ_4G = const(0x58)     # ODR_XL 0101 (208 Hz), FS_XL 10 (+-4 g)
+_G_208HZ_500DPS = const(0x54)  # ODR_G 0101 (208 Hz), FS_G 01 (+-500 dps)
+_BDU_IF_INC = const(0x44)      # BDU, IF_INC
+_XLDA_GDA = const(0x03)
+_TDA = const(0x04)
+_RESERVED = const(0xF8)
+
+_TEMP_MIN = const(-16640)      # (-40 C - 25 C) * 256 LSB/C: the part's range
+_TEMP_MAX = const(15360)       # (85 C - 25 C) * 256
+_RECOVER_AFTER = const(10)
+
+#: m/s^2 per LSB at +-4 g: 0.122 mg (datasheet) * 9.80665.
+ACCEL_SCALE = 0.122e-3 * 9.80665
+#: rad/s per LSB at +-500 dps: 17.50 mdps (datasheet).
+GYRO_SCALE = 17.50e-3 * 3.141592653589793 / 180.0
+#: C per LSB of the temperature output (0 LSB = 25 C).
+TEMP_SCALE = 1.0 / 256.0
+
+
+def _s16(buf, i):
+    v = buf[i] | (buf[i + 1] << 8)
+    return v - ((v & 0x8000) << 1)
+
+
+class LSM6DSOX:
+    """LSM6DSOX on ``i2c`` at ``address`` (0x6A, or 0x6B with SDO high).
+
+    Raises OSError naming the address when nothing answers, another part
+    answers (WHO_AM_I), the reset does not finish or the configuration does
+    not read back.
+    """
+
+    def __init__(self, i2c, address=ADDRESS, clock=None, timeout_ms=50):
+        if clock is None:
+            import time as clock
+        self._i2c = i2c
+        self.address = address
+        self._clock = clock
+        self._buf = bytearray(16)
+        self._reg = bytearray(1)
+        self.accel = array("f", [0.0, 0.0, 0.0])
+        self.gyro = array("f", [0.0, 0.0, 0.0])
+        self.temp_c = array("f", [25.0])
+        self.raw = array("h", [0] * 7)
+        self.health = Health(clock, timeout_ms)
+        self.reconfigurations = 0
+        try:
+            who = self._read_reg(_WHO_AM_I)
+        except OSError as e:
+            raise self._fail("no answer (%s)" % e)
+        if who != _ID:
+            raise self._fail("WHO_AM_I is 0x%02X, expected 0x%02X: another part at this address" % (who, _ID))
+        self._configure()
+
+    def _fail(self, what):
+        return OSError("LSM6DSOX at I2C address 0x%02X: %s" % (self.address, what))
+
+    def _read_reg(self, reg):
+        self._i2c.readfrom_mem_into(self.address, reg, self._reg)
+        return self._reg[0]
+
+    def _write_reg(self, reg, value):
+        self._reg[0] = value
+        self._i2c.writeto_mem(self.address, reg, self._reg)
+
+    def _configure(self):
+        self._write_reg(_CTRL3_C, _SW_RESET | 0x04)
+        for _ in range(10):
+            if not self._read_reg(_CTRL3_C) & _SW_RESET:
+                break
+            self._clock.sleep_ms(1)
+        else:
+            raise self._fail("software reset did not finish")
+        for reg, value in ((_CTRL3_C, _BDU_IF_INC), (_CTRL1_XL, _XL_208HZ_4G), (_CTRL2_G, _G_208HZ_500DPS)):
+            self._write_reg(reg, value)
+            got = self._read_reg(reg)
+            if got != value:
+                raise self._fail("register 0x%02X reads 0x%02X after writing 0x%02X" % (reg, got, value))
+
+    def read(self):
+        """Scheduler task: read the latest sample. True when it was new and sound."""
+        health = self.health
+        try:
+            self._i2c.readfrom_mem_into(self.address, _STATUS_REG, self._buf)
+        except OSError:
+            health.bad(ERR_BUS)
+            self._recover()
+            return False
+        b = self._buf
+        status = b[0]
+        t = _s16(b, 2)
+        if status & _RESERVED or t < _TEMP_MIN or t > _TEMP_MAX:
+            health.bad(ERR_RANGE)
+            self._recover()
+            return False
+        if status & _XLDA_GDA != _XLDA_GDA:
+            health.bad(ERR_STALE)
+            self._recover()
+            return False
+        raw = self.raw
+        raw[0] = t
+        for i in range(6):
+            raw[1 + i] = _s16(b, 4 + 2 * i)
+        g = self.gyro
+        a = self.accel
+        g[0] = raw[1] * GYRO_SCALE
+        g[1] = raw[2] * GYRO_SCALE
+        g[2] = raw[3] * GYRO_SCALE
+        a[0] = raw[4] * ACCEL_SCALE
+        a[1] = raw[5] * ACCEL_SCALE
+        a[2] = raw[6] * ACCEL_SCALE
+        if status & _TDA:
+            self.temp_c[0] = 25.0 + t * TEMP_SCALE
+        health.good()
+        return True
+
+    def _recover(self):
+        if self.health.consecutive % _RECOVER_AFTER:
+            return
+        try:
+            self._configure()
+            self.reconfigurations += 1
+        except OSError:
+            pass

@@ -1,0 +1,209 @@
+"""The fixed-rate main loop: tasks at their periods, overruns counted.
+
+The loop runs in slots of ``period_ms`` (10 ms, 100 Hz) on a fixed grid:
+slot k starts at ``t0 + k * period``. Each task runs every ``n`` slots
+(its period over the loop's) at a phase, so work can be spread (the depth
+sensor on odd slots, control on even ones). A slot runs its due tasks in
+the order they were added, then ``gc.collect()`` (always here, so a
+collection never lands in the middle of a task), then feeds the watchdog if
+the loop is healthy, then sleeps to the next slot.
+
+A slot whose work ends after the next slot began is an overrun: the next
+slot starts at once, late; slots that passed entirely are skipped (counted
+in ``skipped``) and the slot counter jumps past them, so every task stays
+on its wall-clock grid. The watchdog is fed only when no task raised in
+this slot, fewer than ``overrun_limit`` slots in a row overran and
+``health()`` (if given: the failsafes' veto) says yes; a loop that locks
+up or limps stops feeding it and the board resets.
+
+The clock is injected: the ``time`` module on the board, the twin's virtual
+clock in simulation (its ``sleep_us`` is where simulated time moves).
+Adding a task is one line: ``sched.add("control", ctrl.step, 20)``. A task
+is called with no arguments; ``now_us``/``now_ms`` hold the slot's start.
+A slot allocates nothing of its own; ``report()`` (a string) does.
+"""
+
+import gc
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+_MAX_TASKS = const(16)
+
+
+class Scheduler:
+    """Fixed-rate loop.
+
+    Parameters
+    ----------
+    clock:
+        Object with ``ticks_us``, ``ticks_ms``, ``ticks_diff``, ``ticks_add``
+        and ``sleep_us`` (the ``time`` module).
+    period_ms:
+        Slot length: the fastest task's period.
+    wdt:
+        Watchdog (``machine.WDT``) to feed, or None.
+    overrun_limit:
+        Consecutive overrunning slots after which the watchdog goes hungry.
+    health:
+        Optional callable; the watchdog is fed only while it returns True.
+    reset_cause:
+        ``machine.reset_cause()`` at boot, kept for the reports.
+    """
+
+    def __init__(self, clock, period_ms=10, wdt=None, overrun_limit=25, health=None, reset_cause=0):
+        if period_ms < 1:
+            raise ValueError("scheduler period_ms must be >= 1, got %r" % (period_ms,))
+        self._clock = clock
+        self.period_us = period_ms * 1000
+        self.wdt = wdt
+        self.overrun_limit = overrun_limit
+        self.health = health
+        self.reset_cause = reset_cause
+        self.names = []
+        self._fns = []
+        self._every = array("H", [0] * _MAX_TASKS)
+        self._phase = array("H", [0] * _MAX_TASKS)
+        #: Per task: runs, longest run (us), exceptions raised.
+        self.runs = array("l", [0] * _MAX_TASKS)
+        self.task_max_us = array("l", [0] * _MAX_TASKS)
+        self.task_errors = array("l", [0] * _MAX_TASKS)
+        self.last_errors = [None] * _MAX_TASKS
+        self._n = 0
+        self.slot = 0
+        self.cycles = 0
+        self.overruns = 0
+        self.consecutive_overruns = 0
+        self.skipped = 0
+        self.last_loop_us = 0
+        self.max_loop_us = 0
+        self.gc_us = 0
+        self.gc_max_us = 0
+        self.load_permille = 0
+        self.wdt_feeds = 0
+        self.wdt_withheld = 0
+        self.now_us = 0
+        self.now_ms = 0
+        self._running = False
+        self._deadline = 0
+
+    def add(self, name, fn, period_ms, phase=0):
+        """Run ``fn()`` every ``period_ms`` (a multiple of the slot), ``phase`` slots in."""
+        if self._n >= _MAX_TASKS:
+            raise ValueError("scheduler holds at most %d tasks" % _MAX_TASKS)
+        every = period_ms * 1000 // self.period_us
+        if every < 1 or every * self.period_us != period_ms * 1000:
+            raise ValueError("task %s: period %r ms is not a multiple of the %d ms slot"
+                             % (name, period_ms, self.period_us // 1000))
+        if not 0 <= phase < every:
+            raise ValueError("task %s: phase %r outside 0..%d" % (name, phase, every - 1))
+        i = self._n
+        self.names.append(name)
+        self._fns.append(fn)
+        self._every[i] = every
+        self._phase[i] = phase
+        self._n = i + 1
+        return i
+
+    def index(self, name):
+        """Index of task ``name`` (for its counters), -1 if none."""
+        for i in range(self._n):
+            if self.names[i] == name:
+                return i
+        return -1
+
+    def run_slot(self):
+        """Run the tasks due in the current slot and collect; True if all went well."""
+        clock = self._clock
+        self.now_us = clock.ticks_us()
+        self.now_ms = clock.ticks_ms()
+        slot = self.slot
+        ok = True
+        for i in range(self._n):
+            if (slot - self._phase[i]) % self._every[i]:
+                continue
+            t0 = clock.ticks_us()
+            try:
+                self._fns[i]()
+            except Exception as e:  # a failing task must not stop the loop
+                ok = False
+                self.task_errors[i] += 1
+                if self.last_errors[i] is None:
+                    print("task %s failed: %r" % (self.names[i], e))
+                self.last_errors[i] = e
+            dt = clock.ticks_diff(clock.ticks_us(), t0)
+            self.runs[i] += 1
+            if dt > self.task_max_us[i]:
+                self.task_max_us[i] = dt
+        t0 = clock.ticks_us()
+        gc.collect()
+        self.gc_us = clock.ticks_diff(clock.ticks_us(), t0)
+        if self.gc_us > self.gc_max_us:
+            self.gc_max_us = self.gc_us
+        return ok
+
+    def run(self, cycles=-1):
+        """Run slots until ``stop()`` or ``cycles`` slots (-1: for ever)."""
+        clock = self._clock
+        period = self.period_us
+        self._running = True
+        self._deadline = clock.ticks_us()
+        done = 0
+        while self._running and done != cycles:
+            start = clock.ticks_us()
+            ok = self.run_slot()
+            end = clock.ticks_us()
+            work = clock.ticks_diff(end, start)
+            self.last_loop_us = work
+            if work > self.max_loop_us:
+                self.max_loop_us = work
+            # load in permille, smoothed over ~8 slots
+            self.load_permille += (work * 1000 // period - self.load_permille) >> 3
+            self.cycles += 1
+            done += 1
+            nxt = clock.ticks_add(self._deadline, period)
+            late = clock.ticks_diff(end, nxt)
+            step = 1
+            if late >= 0:
+                self.overruns += 1
+                self.consecutive_overruns += 1
+                missed = late // period
+                if missed:
+                    self.skipped += missed
+                    step += missed
+                    nxt = clock.ticks_add(nxt, missed * period)
+            else:
+                self.consecutive_overruns = 0
+            self.slot += step
+            self._deadline = nxt
+            if self.wdt is not None:
+                if ok and self.consecutive_overruns < self.overrun_limit and (
+                        self.health is None or self.health()):
+                    self.wdt.feed()
+                    self.wdt_feeds += 1
+                else:
+                    self.wdt_withheld += 1
+            wait = clock.ticks_diff(nxt, clock.ticks_us())
+            if wait > 0 and self._running and done != cycles:
+                clock.sleep_us(wait)
+        self._running = False
+
+    def stop(self):
+        """End ``run()`` after the current slot."""
+        self._running = False
+
+    def report(self):
+        """The loop's figures as text, one line a task (allocates: on request)."""
+        lines = ["loop %d Hz: %d cycles, %d overruns (%d slots skipped), max %d us, load %d permille, "
+                 "gc max %d us, watchdog fed %d withheld %d"
+                 % (1000000 // self.period_us, self.cycles, self.overruns, self.skipped, self.max_loop_us,
+                    self.load_permille, self.gc_max_us, self.wdt_feeds, self.wdt_withheld)]
+        for i in range(self._n):
+            lines.append("  %-10s every %3d ms: %d runs, max %d us, %d errors" % (
+                self.names[i], self._every[i] * self.period_us // 1000, self.runs[i],
+                self.task_max_us[i], self.task_errors[i]))
+        return "\n".join(lines)

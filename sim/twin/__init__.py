@@ -1,0 +1,85 @@
+"""The software-in-the-loop twin: the firmware, unchanged, on an emulated board.
+
+``board/`` holds MicroPython code that runs inside the interpreter next to
+the firmware (virtual clock, emulated ``machine``, register-level sensors);
+this module puts it there:
+
+- ``board_sources()``: the files, as (host path, path on the board), laid
+  out under ``/lib/roboray/sim/twin/board/`` so the same import lines work
+  on CPython and MicroPython;
+- ``install(mp)``: copy them into a ``MicroPython`` interpreter;
+- ``emulate(mp)``: install, then make the interpreter a board on the
+  virtual clock: ``sys.modules['time']`` becomes ``vclock`` and
+  ``sys.modules['machine']`` the emulated module, before any firmware is
+  imported (``PRELUDE``);
+- ``interpreter()``: a fresh ``MicroPython`` with the board code and the
+  twin installed and ``PRELUDE`` run.
+
+``MACHINE_PY`` is the emulated ``machine`` module alone, importable without
+the rest, for a virtual board that needs a bare Pico 2.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+BOARD_DIR = Path(__file__).with_name("board")
+BOARD_DEST = "/lib/roboray/sim/twin/board"
+MACHINE_PY = BOARD_DIR / "machine.py"
+
+#: Run inside MicroPython before the firmware is imported.
+PRELUDE = (
+    "import sys\n"
+    "from roboray.sim.twin.board import vclock\n"
+    "sys.modules['time'] = vclock\n"
+    "from roboray.sim.twin.board import machine\n"
+    "sys.modules['machine'] = machine\n"
+)
+
+
+def board_sources() -> list[tuple[Path, str]]:
+    """The twin's MicroPython files as (host path, path on the board)."""
+    return [(p, BOARD_DEST + "/" + p.name) for p in sorted(BOARD_DIR.glob("*.py"))]
+
+
+def install(mp) -> list[str]:
+    """Copy the twin's MicroPython files into interpreter ``mp``."""
+    written = []
+    for host, dest in board_sources():
+        mp.write_file(dest, host.read_bytes())
+        written.append(dest)
+    return written
+
+
+def emulate(mp) -> None:
+    """Install the twin into ``mp`` and switch its ``time`` and ``machine``."""
+    install(mp)
+    mp.exec(PRELUDE)
+
+
+def interpreter(**kwargs):
+    """A new MicroPython with the board code and the emulated board in place."""
+    from roboray.tools.micropython import MicroPython
+
+    mp = MicroPython(**kwargs)
+    try:
+        mp.install_board_code()
+        emulate(mp)
+    except BaseException:
+        mp.close()
+        raise
+    return mp
+
+
+#: Run inside MicroPython to get a bare board again on a fresh clock.
+RESET = (
+    "machine.twin.clear()\n"
+    "vclock.set_hook(None)\n"
+    "vclock.set_tick_cost_us(0)\n"
+    "vclock.reset()\n"
+)
+
+
+def reset(mp) -> None:
+    """Back to a bare board at time 0 (devices detached, clock hook removed)."""
+    mp.exec(RESET)

@@ -1,0 +1,189 @@
+"""The LSM6DSOX accelerometer and gyroscope, emulated at register level.
+
+MicroPython code for the twin. The register map the firmware's driver uses
+(ST LSM6DSOX datasheet DS12814):
+
+- ``WHO_AM_I`` (0x0F) = 0x6C; ``CTRL1_XL`` (0x10): ODR_XL[7:4], FS_XL[3:2]
+  (00 +-2 g, 01 +-16 g, 10 +-4 g, 11 +-8 g); ``CTRL2_G`` (0x11): ODR_G[7:4],
+  FS_G[3:2] (250, 500, 1000, 2000 dps), FS_125[1]; ``CTRL3_C`` (0x12):
+  BOOT[7], BDU[6], IF_INC[2] (register auto-increment, on after reset),
+  SW_RESET[0] (restores the defaults, then reads back 0);
+- ``STATUS_REG`` (0x1E): TDA[2], GDA[1], XLDA[0], set when a new sample is
+  latched at the output data rate (against the clock) and cleared when the
+  matching output registers are read; bits 7..3 read 0;
+- outputs, little-endian two's complement: ``OUT_TEMP`` (0x20, 256 LSB/C,
+  0 at 25 C), ``OUTX_L_G`` .. (0x22-0x27), ``OUTX_L_A`` .. (0x28-0x2D),
+  scaled by the configured full scale (0.061/0.122/0.244/0.488 mg/LSB;
+  4.375/8.75/17.50/35/70 mdps/LSB) and clipped to 16 bits.
+
+Power-on state: both sensors off (ODR 0), so nothing is ever "ready" until
+a driver configures the chip. Inputs from the twin, in the sensor's axes:
+``set_accel`` (specific force, m/s^2), ``set_gyro`` (rad/s),
+``set_temperature`` (C). Faults as in ``i2c_device``.
+"""
+
+import math
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+from roboray.sim.twin.board.i2c_device import (
+    FAULT_STICK,
+    RegisterDevice,
+    clamp_s16,
+    put_s16_le,
+)
+
+ADDRESS = const(0x6A)
+WHO_AM_I_VALUE = const(0x6C)
+G = 9.80665
+
+_WHO_AM_I = const(0x0F)
+_CTRL1_XL = const(0x10)
+_CTRL2_G = const(0x11)
+_CTRL3_C = const(0x12)
+_CTRL9_XL = const(0x18)
+_STATUS = const(0x1E)
+_OUT_TEMP_L = const(0x20)
+_OUTX_L_G = const(0x22)
+_OUTX_L_A = const(0x28)
+
+_XLDA = const(0x01)
+_GDA = const(0x02)
+_TDA = const(0x04)
+
+#: Sample period by ODR code (12.5 Hz .. 6667 Hz; 11 = 1.6 Hz low-power), us.
+_ODR_US = (0, 80000, 38462, 19231, 9615, 4808, 2404, 1200, 600, 300, 150, 625000)
+#: Accelerometer sensitivity by FS_XL code, mg/LSB.
+_XL_MG = (0.061, 0.488, 0.122, 0.244)
+#: Gyroscope sensitivity by FS_G code, mdps/LSB.
+_G_MDPS = (8.75, 17.50, 35.0, 70.0)
+
+_WRITABLE = (0x01, 0x02, 0x04, 0x07, 0x08, 0x09, 0x0A, 0x0B, 0x0C, 0x0D, 0x0E,
+             0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16, 0x17, 0x18, 0x19)
+
+
+class LSM6DSOXDevice(RegisterDevice):
+    """An LSM6DSOX on the bus; feed it with ``set_accel``/``set_gyro``."""
+
+    def __init__(self, address=ADDRESS, clock=None):
+        self._phys = array("d", [25.0, 0.0, 0.0, 0.0, 0.0, 0.0, G])  # temp, gyro, accel
+        self._raw = array("h", [0] * 7)
+        RegisterDevice.__init__(self, address, 128, clock)
+
+    # ------------------------------------------------------------ twin side
+    def set_accel(self, ax, ay, az):
+        """Specific force along the sensor's axes, m/s^2 (+g on z lying flat)."""
+        p = self._phys
+        p[4] = ax
+        p[5] = ay
+        p[6] = az
+        self._quantise()
+
+    def set_gyro(self, gx, gy, gz):
+        """Angular rate about the sensor's axes, rad/s."""
+        p = self._phys
+        p[1] = gx
+        p[2] = gy
+        p[3] = gz
+        self._quantise()
+
+    def set_temperature(self, temp_c):
+        self._phys[0] = temp_c
+        self._quantise()
+
+    def accel_lsb(self):
+        """m/s^2 per LSB at the configured full scale."""
+        return _XL_MG[(self.regs[_CTRL1_XL] >> 2) & 3] * 1e-3 * G
+
+    def gyro_lsb(self):
+        """rad/s per LSB at the configured full scale."""
+        c = self.regs[_CTRL2_G]
+        mdps = 4.375 if c & 0x02 else _G_MDPS[(c >> 2) & 3]
+        return mdps * 1e-3 * math.pi / 180.0
+
+    def _quantise(self):
+        p = self._phys
+        r = self._raw
+        r[0] = clamp_s16((p[0] - 25.0) * 256.0)
+        g = self.gyro_lsb()
+        a = self.accel_lsb()
+        for i in range(3):
+            r[1 + i] = clamp_s16(p[1 + i] / g)
+            r[4 + i] = clamp_s16(p[4 + i] / a)
+
+    # ---------------------------------------------------------- chip model
+    def _reset_registers(self):
+        regs = self.regs
+        for i in range(len(regs)):
+            regs[i] = 0
+        regs[_WHO_AM_I] = WHO_AM_I_VALUE
+        regs[_CTRL3_C] = 0x04
+        regs[_CTRL9_XL] = 0xE0
+        self._next_xl = 0
+        self._next_g = 0
+        self._quantise()
+
+    def _write_reg(self, reg, value):
+        if reg not in _WRITABLE:
+            return
+        if reg == _CTRL3_C and value & 0x81:
+            self._reset_registers()  # SW_RESET / BOOT: defaults, bits read back 0
+            return
+        old = self.regs[reg]
+        self.regs[reg] = value
+        now = self.clock.ticks_us()
+        if reg == _CTRL1_XL:
+            if (old >> 4) == 0 and (value >> 4):
+                self._next_xl = self.clock.ticks_add(now, _ODR_US[value >> 4])
+            self._quantise()
+        elif reg == _CTRL2_G:
+            if (old >> 4) == 0 and (value >> 4):
+                self._next_g = self.clock.ticks_add(now, _ODR_US[value >> 4] if value >> 4 < 11 else 0)
+            self._quantise()
+
+    def _auto_increment(self, subaddr):
+        return bool(self.regs[_CTRL3_C] & 0x04)
+
+    def _sync(self):
+        clock = self.clock
+        now = clock.ticks_us()
+        regs = self.regs
+        stuck = self.fault == FAULT_STICK
+        r = self._raw
+        code = regs[_CTRL1_XL] >> 4
+        if code:
+            period = _ODR_US[code]
+            late = clock.ticks_diff(now, self._next_xl)
+            if late >= 0:
+                self._next_xl = clock.ticks_add(self._next_xl, (late // period + 1) * period)
+                if not stuck:
+                    put_s16_le(regs, _OUTX_L_A, r[4])
+                    put_s16_le(regs, _OUTX_L_A + 2, r[5])
+                    put_s16_le(regs, _OUTX_L_A + 4, r[6])
+                    put_s16_le(regs, _OUT_TEMP_L, r[0])
+                regs[_STATUS] |= _XLDA | _TDA
+        code = regs[_CTRL2_G] >> 4
+        if code and code < 11:
+            period = _ODR_US[code]
+            late = clock.ticks_diff(now, self._next_g)
+            if late >= 0:
+                self._next_g = clock.ticks_add(self._next_g, (late // period + 1) * period)
+                if not stuck:
+                    put_s16_le(regs, _OUTX_L_G, r[1])
+                    put_s16_le(regs, _OUTX_L_G + 2, r[2])
+                    put_s16_le(regs, _OUTX_L_G + 4, r[3])
+                    put_s16_le(regs, _OUT_TEMP_L, r[0])
+                regs[_STATUS] |= _GDA | _TDA
+
+    def _after_read(self, reg):
+        if _OUTX_L_A <= reg <= _OUTX_L_A + 5:
+            self.regs[_STATUS] &= ~_XLDA & 0xFF
+        elif _OUTX_L_G <= reg <= _OUTX_L_G + 5:
+            self.regs[_STATUS] &= ~_GDA & 0xFF
+        elif reg == _OUT_TEMP_L or reg == _OUT_TEMP_L + 1:
+            self.regs[_STATUS] &= ~_TDA & 0xFF

@@ -1,0 +1,890 @@
+"""An emulated Raspberry Pi Pico 2 ``machine`` module (rp2 port, MicroPython 1.29).
+
+MicroPython code: the twin runs it inside the interpreter that runs the
+firmware, as ``sys.modules['machine']``; the WebAssembly port has no built-in
+``machine``, so the file also works alone as ``/lib/machine.py`` on the
+virtual board. It imports nothing but ``time`` (the virtual clock when the
+twin installed one, the real clock otherwise).
+
+With nothing attached it is a bare Pico 2: ``I2C.scan()`` returns ``[]``
+and any transfer raises ``OSError(EIO)`` as rp2 does on a NACK; pins read
+their pulls; PWM, UART, ADC and WDT behave as the rp2 port's do (argument
+checks and error messages included, so a wrong board profile fails here as
+it would on the board). What the firmware sees is all it can see; the other
+side of every peripheral belongs to the twin, through ``twin``:
+
+- I2C: ``twin.attach(bus_id, device)`` puts an emulated device on a bus at
+  ``device.address``. A device offers ``answers()`` (False: NACK),
+  ``read(buf)``, ``write(buf)``, ``read_mem(memaddr, buf)`` and
+  ``write_mem(memaddr, buf)``, and ``power_on()`` for a power cycle.
+- GPIO: ``twin.set_pin(pin, level)`` drives an input (None: undriven, the
+  pull decides); ``twin.pin_level(pin)`` reads any pin back.
+- ADC: ``twin.set_adc_volts(channel, volts)`` or ``set_adc_u16``.
+- PWM: ``twin.pulse_ns(pin)`` (high time, 0 when off) and ``pwm_freq(pin)``.
+- UART: ``twin.uart(uart_id)`` is the far end of the line: ``feed(data)``
+  sends bytes to the board, ``take()`` returns what the board sent; both
+  directions move at the baud rate against the clock, and bytes the board
+  did not read in time overflow its receive buffer (``rx_dropped``).
+- WDT: ``twin.wdt_expired()``; ``twin.check_watchdog()`` power-cycles and
+  raises ``BoardReset`` when it expired (call it from the clock hook).
+- Resets: ``machine.reset()`` and a watchdog expiry raise ``BoardReset``
+  (a ``BaseException``, so the firmware's ``except Exception`` cannot
+  swallow it); ``twin.power_cycle(cause)`` restarts the peripherals and
+  sets what ``reset_cause()`` reports. rp2 knows only ``PWRON_RESET`` and
+  ``WDT_RESET``; ``machine.reset()`` reboots through the watchdog, so the
+  next ``reset_cause()`` is ``WDT_RESET`` there and here.
+
+``mem32`` emulates only the watchdog's CTRL register (its ENABLE bit), the
+one register the firmware writes. Not emulated: SPI, SoftI2C, SoftSPI,
+Timer, RTC, Signal, I2S, mem8/16.
+"""
+
+import time
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+_EIO = const(5)
+_NUM_PINS = const(30)        # RP2350A: GP0..GP29
+_LED_PIN = const(25)
+_UNSET = const(255)
+_UNDRIVEN = const(2)
+_SYS_FREQ = const(150000000)
+_WDT_MAX_MS = const(16777)   # RP2350: 24-bit counter at 1 tick/us
+_PWM_MIN_HZ = const(9)       # 150 MHz / (256 * 65536) rounded up
+_UART_DEFAULT_BUF = const(256)
+_UART_MIN_BUF = const(32)
+_UART_MAX_BUF = const(32766)
+_WIRE_BUF = const(8192)      # bytes the far end of a UART line can hold
+_MAX_GAP_US = const(100000)  # longest interval paced at once (keeps ints small)
+
+PWRON_RESET = const(1)
+WDT_RESET = const(3)
+
+
+class BoardReset(BaseException):
+    """The board reset here; ``cause`` is what ``reset_cause()`` reports next
+    (0 for a soft reset, which keeps the peripherals running)."""
+
+    def __init__(self, cause, why):
+        # super(), not BaseException.__init__(self, ...): on MicroPython 1.29
+        # the latter makes ``except Exception`` catch the instance.
+        super().__init__(why)
+        self.cause = cause
+
+
+def _pin_id(p):
+    if isinstance(p, Pin):
+        return p._id
+    if isinstance(p, int):
+        if 0 <= p < _NUM_PINS:
+            return p
+        raise ValueError("invalid pin")
+    if isinstance(p, str):
+        if p == "LED":
+            return _LED_PIN
+        if p.startswith("GP") and p[2:].isdigit() and int(p[2:]) < _NUM_PINS:
+            return int(p[2:])
+        raise ValueError("unknown named pin \"%s\"" % p)
+    raise TypeError("expecting a Pin")
+
+
+# ------------------------------------------------------------------ GPIO
+class Pin:
+    IN = 0
+    OUT = 1
+    OPEN_DRAIN = 2
+    ALT = 3
+    PULL_UP = 1
+    PULL_DOWN = 2
+    IRQ_FALLING = 4
+    IRQ_RISING = 8
+
+    def __init__(self, id, mode=-1, pull=-1, *, value=None, alt=-1):
+        self._id = _pin_id(id)
+        self.init(mode, pull, value=value)
+
+    def init(self, mode=-1, pull=-1, *, value=None, alt=-1):
+        t = twin
+        if value is not None:
+            t._latch[self._id] = 1 if value else 0
+        if mode != -1:
+            if mode not in (0, 1, 2, 3):
+                raise ValueError("invalid pin mode: %d" % mode)
+            t._mode[self._id] = mode
+        if pull != -1 and pull is not None:
+            if pull not in (0, 1, 2):
+                raise ValueError("invalid pull value: %d" % pull)
+            t._pull[self._id] = pull
+        elif pull is None:
+            t._pull[self._id] = 0
+
+    def value(self, x=None):
+        if x is None:
+            return twin.pin_level(self._id)
+        twin._latch[self._id] = 1 if x else 0
+        return None
+
+    def __call__(self, x=None):
+        return self.value(x)
+
+    def on(self):
+        twin._latch[self._id] = 1
+
+    def off(self):
+        twin._latch[self._id] = 0
+
+    def high(self):
+        twin._latch[self._id] = 1
+
+    def low(self):
+        twin._latch[self._id] = 0
+
+    def toggle(self):
+        twin._latch[self._id] ^= 1
+
+    def mode(self, mode=None):
+        if mode is None:
+            return twin._mode[self._id]
+        self.init(mode)
+
+    def pull(self, pull=None):
+        if pull is None:
+            return twin._pull[self._id]
+        self.init(-1, pull)
+
+    def irq(self, handler=None, trigger=12, hard=False):
+        twin._irq[self._id] = (handler, trigger) if handler is not None else None
+        return None
+
+    def __repr__(self):
+        return "Pin(GPIO%d)" % self._id
+
+
+# ------------------------------------------------------------------- I2C
+class I2C:
+    """Hardware I2C; transfers go to the emulated device at the address."""
+
+    def __init__(self, id=0, *, scl=None, sda=None, freq=400000, timeout=50000):
+        if id not in (0, 1):
+            raise ValueError("I2C(%d) doesn't exist" % id)
+        if scl is not None:
+            n = _pin_id(scl)
+            if not (n & 1 == 1 and (n & 2) >> 1 == id):
+                raise ValueError("bad SCL pin")
+        if sda is not None:
+            n = _pin_id(sda)
+            if not (n & 1 == 0 and (n & 2) >> 1 == id):
+                raise ValueError("bad SDA pin")
+        self._id = id
+        self._bus = twin._i2c[id]
+        self.freq = freq
+        self.timeout = timeout
+
+    def _device(self, addr):
+        dev = self._bus.get(addr)
+        if dev is None or not dev.answers():
+            raise OSError(_EIO)
+        return dev
+
+    def scan(self):
+        found = []
+        for addr in range(0x08, 0x78):
+            dev = self._bus.get(addr)
+            if dev is not None and dev.answers():
+                found.append(addr)
+        return found
+
+    def readfrom_mem_into(self, addr, memaddr, buf, *, addrsize=8):
+        self._device(addr).read_mem(memaddr, buf)
+
+    def readfrom_mem(self, addr, memaddr, nbytes, *, addrsize=8):
+        buf = bytearray(nbytes)
+        self._device(addr).read_mem(memaddr, buf)
+        return bytes(buf)
+
+    def writeto_mem(self, addr, memaddr, buf, *, addrsize=8):
+        self._device(addr).write_mem(memaddr, buf)
+
+    def readfrom_into(self, addr, buf, stop=True):
+        self._device(addr).read(buf)
+
+    def readfrom(self, addr, nbytes, stop=True):
+        buf = bytearray(nbytes)
+        self._device(addr).read(buf)
+        return bytes(buf)
+
+    def writeto(self, addr, buf, stop=True):
+        self._device(addr).write(buf)
+        return len(buf)
+
+    def writevto(self, addr, vector, stop=True):
+        data = bytearray()
+        for part in vector:
+            data.extend(part)
+        self._device(addr).write(data)
+        return len(data)
+
+    def __repr__(self):
+        return "I2C(%d, freq=%d, timeout=%d)" % (self._id, self.freq, self.timeout)
+
+
+# ------------------------------------------------------------------- PWM
+class PWM:
+    """One PWM channel; the two channels of a slice share its frequency."""
+
+    def __init__(self, dest, *, freq=-1, duty_u16=-1, duty_ns=-1, invert=False):
+        self._pin = _pin_id(dest)
+        self._slice = (self._pin >> 1) & 7
+        twin._pwm_on[self._pin] = 1
+        self.init(freq=freq, duty_u16=duty_u16, duty_ns=duty_ns, invert=invert)
+
+    def init(self, *, freq=-1, duty_u16=-1, duty_ns=-1, invert=False):
+        if freq != -1:
+            self.freq(freq)
+        if duty_u16 != -1:
+            self.duty_u16(duty_u16)
+        if duty_ns != -1:
+            self.duty_ns(duty_ns)
+        twin._pwm_invert[self._pin] = 1 if invert else 0
+        twin._pwm_on[self._pin] = 1
+
+    def freq(self, value=None):
+        t = twin
+        if value is None:
+            return t._slice_freq[self._slice]
+        if value < _PWM_MIN_HZ:
+            raise ValueError("freq too small")
+        if value > _SYS_FREQ // 2:
+            raise ValueError("freq too large")
+        t._slice_freq[self._slice] = value
+        return None
+
+    def duty_u16(self, value=None):
+        t = twin
+        if value is None:
+            if t._duty_is_ns[self._pin]:
+                period = 1000000000 // t._slice_freq[self._slice]
+                return min(65535, int(t._duty[self._pin] * 65535.0 / period))
+            return t._duty[self._pin]
+        if not 0 <= value <= 65535:
+            raise ValueError("duty_u16 must be from 0 to 65535")
+        t._duty[self._pin] = value
+        t._duty_is_ns[self._pin] = 0
+        return None
+
+    def duty_ns(self, value=None):
+        t = twin
+        if value is None:
+            return t.pulse_ns(self._pin)
+        if value < 0:
+            raise ValueError("duty_ns must be >= 0")
+        t._duty[self._pin] = value
+        t._duty_is_ns[self._pin] = 1
+        return None
+
+    def deinit(self):
+        twin._pwm_on[self._pin] = 0
+
+    def __repr__(self):
+        return "<PWM slice=%d channel=%d>" % (self._slice, self._pin & 1)
+
+
+# ------------------------------------------------------------------ UART
+class _Ring:
+    """Fixed byte queue; ``put`` reports whether the byte fitted."""
+
+    def __init__(self, size):
+        self.buf = bytearray(size)
+        self.head = 0
+        self.n = 0
+
+    def put(self, b):
+        size = len(self.buf)
+        if self.n >= size:
+            return False
+        i = self.head + self.n
+        if i >= size:
+            i -= size
+        self.buf[i] = b
+        self.n += 1
+        return True
+
+    def get(self):
+        b = self.buf[self.head]
+        self.head += 1
+        if self.head >= len(self.buf):
+            self.head = 0
+        self.n -= 1
+        return b
+
+    def clear(self):
+        self.head = 0
+        self.n = 0
+
+
+class _UartLine:
+    """Both ends of one UART: the board's buffers and the wire to the twin.
+
+    ``feed``/``take``/counters are the twin's side; the board's UART object
+    moves bytes at the line rate when it is used (``_pump``).
+    """
+
+    def __init__(self, uart_id):
+        self.id = uart_id
+        self.rx = _Ring(_UART_DEFAULT_BUF)
+        self.tx = _Ring(_UART_DEFAULT_BUF)
+        self.wire_in = _Ring(_WIRE_BUF)    # sent by the far end, not yet arrived
+        self.wire_out = _Ring(_WIRE_BUF)   # sent by the board, not yet taken
+        self.byte_ns = 173611              # 57600 baud, 8N1: 10 bits a byte
+        self.rx_dropped = 0                # arrived with the receive buffer full
+        self.in_lost = 0                   # fed faster than the wire can hold
+        self.out_lost = 0                  # the twin did not take() in time
+        self.open = False
+        self._last = time.ticks_us()
+        self._credit_in = 0
+        self._credit_out = 0
+
+    def configure(self, baudrate, frame_bits, rxbuf, txbuf):
+        self.byte_ns = (frame_bits * 1000000000) // baudrate
+        if len(self.rx.buf) != rxbuf:
+            self.rx = _Ring(rxbuf)
+        if len(self.tx.buf) != txbuf:
+            self.tx = _Ring(txbuf)
+        self.open = True
+        self._last = time.ticks_us()
+
+    def _pump(self):
+        now = time.ticks_us()
+        dt = time.ticks_diff(now, self._last)
+        self._last = now
+        if dt <= 0:
+            return
+        if dt > _MAX_GAP_US:
+            dt = _MAX_GAP_US
+        bns = self.byte_ns
+        if self.wire_in.n:
+            self._credit_in += dt * 1000
+            while self._credit_in >= bns and self.wire_in.n:
+                self._credit_in -= bns
+                if not self.rx.put(self.wire_in.get()):
+                    self.rx_dropped += 1
+        else:
+            self._credit_in = 0
+        if self.tx.n:
+            self._credit_out += dt * 1000
+            while self._credit_out >= bns and self.tx.n:
+                self._credit_out -= bns
+                b = self.tx.get()
+                if not self.wire_out.put(b):
+                    # the twin did not take() for seconds: lose the oldest byte
+                    self.wire_out.get()
+                    self.wire_out.put(b)
+                    self.out_lost += 1
+        else:
+            self._credit_out = 0
+
+    # twin side
+    def feed(self, data):
+        """Send ``data`` to the board; returns how many bytes the wire took."""
+        self._pump()
+        n = 0
+        for b in data:
+            if not self.wire_in.put(b):
+                self.in_lost += len(data) - n
+                break
+            n += 1
+        return n
+
+    def take(self):
+        """Bytes the board has sent so far (at the line rate)."""
+        self._pump()
+        out = bytearray(self.wire_out.n)
+        for i in range(len(out)):
+            out[i] = self.wire_out.get()
+        return bytes(out)
+
+    def pending_in(self):
+        """Bytes fed but not yet arrived at the board."""
+        return self.wire_in.n
+
+    def reset(self):
+        self.rx.clear()
+        self.tx.clear()
+        self.wire_in.clear()
+        self.open = False
+        self._credit_in = 0
+        self._credit_out = 0
+
+
+_UART_BAD_PIN = "bad %s pin"
+
+
+class UART:
+    """rp2 UART with its ring buffers; the far end is ``twin.uart(id)``."""
+
+    INV_TX = 1
+    INV_RX = 2
+    CTS = 1
+    RTS = 2
+
+    def __init__(self, id, baudrate=-1, bits=-1, parity=-1, stop=-1, *, tx=None, rx=None,
+                 cts=None, rts=None, timeout=-1, timeout_char=-1, invert=-1, flow=-1,
+                 txbuf=-1, rxbuf=-1):
+        if id not in (0, 1):
+            raise ValueError("UART(%d) doesn't exist" % id)
+        self._id = id
+        self._line = twin._uart[id]
+        self.baudrate = 115200
+        self.bits = 8
+        self.parity = None
+        self.stop = 1
+        self.timeout = 0
+        self.timeout_char = 0
+        self.init(baudrate, bits, parity, stop, tx=tx, rx=rx, cts=cts, rts=rts, timeout=timeout,
+                  timeout_char=timeout_char, invert=invert, flow=flow, txbuf=txbuf, rxbuf=rxbuf)
+
+    def init(self, baudrate=-1, bits=-1, parity=-1, stop=-1, *, tx=None, rx=None, cts=None,
+             rts=None, timeout=-1, timeout_char=-1, invert=-1, flow=-1, txbuf=-1, rxbuf=-1):
+        for pin, rem, name in ((tx, 0, "TX"), (rx, 1, "RX"), (cts, 2, "CTS"), (rts, 3, "RTS")):
+            if pin is not None:
+                n = _pin_id(pin)
+                if not ((n & 3) == rem and (((n + 4) & 8) >> 3) == self._id):
+                    raise ValueError(_UART_BAD_PIN % name)
+        if baudrate > 0:
+            self.baudrate = baudrate
+        if bits > 0:
+            if bits not in (5, 6, 7, 8):
+                raise ValueError("invalid data bits")
+            self.bits = bits
+        if parity != -1:
+            self.parity = parity
+        if stop > 0:
+            if stop not in (1, 2):
+                raise ValueError("invalid stop bits")
+            self.stop = stop
+        if timeout >= 0:
+            self.timeout = timeout
+        if timeout_char >= 0:
+            self.timeout_char = timeout_char
+        # rp2: at least one whole character (13 bits to be safe)
+        min_char = 13000 // self.baudrate + 1
+        if self.timeout_char < min_char:
+            self.timeout_char = min_char
+        sizes = []
+        for size, name in ((rxbuf, "rxbuf"), (txbuf, "txbuf")):
+            if size <= 0:
+                size = _UART_DEFAULT_BUF
+            elif size < _UART_MIN_BUF:
+                size = _UART_MIN_BUF
+            elif size > _UART_MAX_BUF:
+                raise ValueError("%s too large" % name)
+            sizes.append(size)
+        frame = 1 + self.bits + (0 if self.parity is None else 1) + self.stop
+        self._line.configure(self.baudrate, frame, sizes[0], sizes[1])
+
+    def deinit(self):
+        self._line.reset()
+
+    def any(self):
+        line = self._line
+        line._pump()
+        return line.rx.n
+
+    def _wait(self, us):
+        # Blocking as the board blocks: sleep in byte times, so the clock
+        # (and, in the twin, the world) moves while the firmware waits.
+        line = self._line
+        step = line.byte_ns // 1000 + 1
+        waited = 0
+        while waited < us:
+            time.sleep_us(step)
+            waited += step
+            line._pump()
+            if line.rx.n:
+                return True
+        return False
+
+    def readinto(self, buf, nbytes=-1):
+        line = self._line
+        line._pump()
+        n = len(buf) if nbytes < 0 or nbytes > len(buf) else nbytes
+        i = 0
+        while i < n:
+            if line.rx.n == 0:
+                wait = self.timeout if i == 0 else self.timeout_char
+                if wait <= 0 or not self._wait(wait * 1000):
+                    break
+            buf[i] = line.rx.get()
+            i += 1
+        return i if i else None
+
+    def read(self, nbytes=-1):
+        line = self._line
+        line._pump()
+        if nbytes < 0:
+            nbytes = line.rx.n if line.rx.n else 1
+        buf = bytearray(nbytes)
+        n = self.readinto(buf)
+        if n is None:
+            return None
+        return bytes(buf) if n == nbytes else bytes(buf[:n])
+
+    def readline(self):
+        out = bytearray()
+        b = bytearray(1)
+        while self.readinto(b) == 1:
+            out.append(b[0])
+            if b[0] == 10:
+                break
+        return bytes(out) if out else None
+
+    def write(self, buf, off=0, sz=-1):
+        line = self._line
+        line._pump()
+        end = len(buf) if sz < 0 or off + sz > len(buf) else off + sz
+        i = off
+        while i < end:
+            if not line.tx.put(buf[i]):
+                if self.timeout <= 0 or not self._wait_tx(self.timeout * 1000):
+                    break
+                continue
+            i += 1
+        n = i - off
+        return n if n else None
+
+    def _wait_tx(self, us):
+        line = self._line
+        step = line.byte_ns // 1000 + 1
+        waited = 0
+        while waited < us:
+            time.sleep_us(step)
+            waited += step
+            line._pump()
+            if line.tx.n < len(line.tx.buf):
+                return True
+        return False
+
+    def txdone(self):
+        line = self._line
+        line._pump()
+        return line.tx.n == 0
+
+    def flush(self):
+        line = self._line
+        while not self.txdone():
+            time.sleep_us(line.byte_ns // 1000 + 1)
+
+    def sendbreak(self):
+        time.sleep_us(13000000 // self.baudrate + 1)
+
+    def __repr__(self):
+        return "UART(%d, baudrate=%d, bits=%d, parity=%s, stop=%d, txbuf=%d, rxbuf=%d, timeout=%d, timeout_char=%d)" % (
+            self._id, self.baudrate, self.bits, self.parity, self.stop, len(self._line.tx.buf),
+            len(self._line.rx.buf), self.timeout, self.timeout_char)
+
+
+# ------------------------------------------------------------------- ADC
+class ADC:
+    CORE_TEMP = 4
+
+    def __init__(self, pin):
+        if isinstance(pin, Pin) or (isinstance(pin, int) and pin >= 26):
+            n = _pin_id(pin)
+            if not 26 <= n <= 29:
+                raise ValueError("invalid pin")
+            self._ch = n - 26
+        elif isinstance(pin, int) and 0 <= pin <= 4:
+            self._ch = pin
+        else:
+            raise ValueError("invalid channel")
+
+    def read_u16(self):
+        return twin._adc[self._ch]
+
+
+# ------------------------------------------------------------------- WDT
+class WDT:
+    def __init__(self, id=0, timeout=5000):
+        if id != 0:
+            raise ValueError("WDT(%d) doesn't exist" % id)
+        if timeout > _WDT_MAX_MS:
+            raise ValueError("timeout exceeds %d" % _WDT_MAX_MS)
+        twin._wdt_start(timeout)
+
+    def feed(self):
+        twin._wdt_feed()
+
+
+# ---------------------------------------------------------------- mem32
+_WATCHDOG_CTRL = 0x400D8000   # RP2350 WATCHDOG CTRL; +0x1000 XOR, +0x2000 SET, +0x3000 CLR
+_WATCHDOG_ENABLE = 0x40000000
+
+
+class _Mem32:
+    """Word access to the RP2350's registers. Only the watchdog's CTRL
+    (its ENABLE bit, through the normal and the atomic aliases) is emulated;
+    any other address raises, as a hard fault would stop a board."""
+
+    def _where(self, addr):
+        alias = addr - _WATCHDOG_CTRL
+        if alias in (0, 0x1000, 0x2000, 0x3000):
+            return alias
+        raise ValueError("mem32[0x%08X]: register not emulated" % addr)
+
+    def __getitem__(self, addr):
+        self._where(addr)
+        return _WATCHDOG_ENABLE if twin.wdt_timeout_ms else 0
+
+    def __setitem__(self, addr, value):
+        alias = self._where(addr)
+        bit = bool(value & _WATCHDOG_ENABLE)
+        on = bool(twin.wdt_timeout_ms)
+        if alias == 0:
+            on = bit
+        elif alias == 0x1000:
+            on = on != bit
+        elif alias == 0x2000:
+            on = on or bit
+        else:
+            on = on and not bit
+        twin._wdt_enable(on)
+
+
+mem32 = _Mem32()
+
+
+# -------------------------------------------------------- module functions
+def reset():
+    # rp2 reboots through the watchdog: the next reset_cause() is WDT_RESET.
+    twin.power_cycle(WDT_RESET)
+    raise BoardReset(WDT_RESET, "machine.reset()")
+
+
+def soft_reset():
+    raise BoardReset(0, "machine.soft_reset()")
+
+
+def reset_cause():
+    return twin.reset_cause
+
+
+def bootloader(value=None):
+    twin.power_cycle(PWRON_RESET)
+    raise BoardReset(PWRON_RESET, "machine.bootloader()")
+
+
+def unique_id():
+    return twin.unique_id
+
+
+def freq(hz=None):
+    if hz is None:
+        return twin.sys_freq
+    twin.sys_freq = hz
+    return None
+
+
+def idle():
+    # Returns at the next interrupt: the 1 kHz tick at the latest.
+    time.sleep_us(1000)
+
+
+def lightsleep(time_ms=None):
+    time.sleep_ms(1 if time_ms is None else time_ms)
+
+
+def deepsleep(time_ms=None):
+    lightsleep(time_ms)
+    reset()
+
+
+def disable_irq():
+    return 0
+
+
+def enable_irq(state=0):
+    return None
+
+
+def time_pulse_us(pin, pulse_level, timeout_us=1000000):
+    # Nothing on a pin ever pulses by itself: wait the time-out, report none.
+    time.sleep_us(timeout_us)
+    return -2
+
+
+# ---------------------------------------------------------------- the twin
+class _Twin:
+    """The outside of the board; see the module docstring."""
+
+    def __init__(self):
+        self._i2c = ({}, {})
+        self._uart = (_UartLine(0), _UartLine(1))
+        self._mode = bytearray(_NUM_PINS)
+        self._pull = bytearray(_NUM_PINS)
+        self._latch = bytearray(_NUM_PINS)
+        self._drive = bytearray(_NUM_PINS)
+        self._irq = [None] * _NUM_PINS
+        self._adc = [0, 0, 0, 0, 14019]   # channel 4: the die at 27 C (0.706 V)
+        self._slice_freq = [1000] * 8
+        self._duty = [0] * _NUM_PINS
+        self._duty_is_ns = bytearray(_NUM_PINS)
+        self._pwm_on = bytearray(_NUM_PINS)
+        self._pwm_invert = bytearray(_NUM_PINS)
+        self.unique_id = b"\xe6\x61\x41\x04\x03\x2b\x7a\x2e"
+        self.clear()
+
+    def clear(self):
+        """A bare board after power-on: no devices, nothing driven."""
+        for bus in self._i2c:
+            for addr in list(bus):
+                del bus[addr]
+        for i in range(_NUM_PINS):
+            self._drive[i] = _UNDRIVEN
+        for ch in range(4):
+            self._adc[ch] = 0
+        self.power_cycle(PWRON_RESET)
+
+    def power_cycle(self, cause=PWRON_RESET):
+        """Restart the board's peripherals; ``reset_cause()`` becomes ``cause``.
+
+        The world outside (twin-driven pins, ADC inputs, attached devices)
+        stays; devices restart only on a power-on reset, since a watchdog
+        reset does not cut the sensors' supply.
+        """
+        for i in range(_NUM_PINS):
+            self._mode[i] = _UNSET
+            self._pull[i] = 0
+            self._latch[i] = 0
+            self._irq[i] = None
+            self._duty[i] = 0
+            self._duty_is_ns[i] = 0
+            self._pwm_on[i] = 0
+            self._pwm_invert[i] = 0
+        for s in range(8):
+            self._slice_freq[s] = 1000
+        for line in self._uart:
+            line.reset()
+        self.wdt_timeout_ms = 0
+        self._wdt_saved = 0
+        self.wdt_feeds = 0
+        self._wdt_last = 0
+        self.reset_cause = cause
+        self.sys_freq = _SYS_FREQ
+        if cause == PWRON_RESET:
+            for bus in self._i2c:
+                for dev in bus.values():
+                    if hasattr(dev, "power_on"):
+                        dev.power_on()
+
+    # I2C
+    def attach(self, bus_id, device):
+        """Put an emulated device on I2C bus ``bus_id`` at ``device.address``."""
+        bus = self._i2c[bus_id]
+        if device.address in bus and bus[device.address] is not device:
+            raise ValueError("I2C%d address 0x%02X is already taken" % (bus_id, device.address))
+        bus[device.address] = device
+        return device
+
+    def detach(self, bus_id, address):
+        self._i2c[bus_id].pop(address, None)
+
+    def devices(self, bus_id):
+        return dict(self._i2c[bus_id])
+
+    # GPIO
+    def set_pin(self, pin, level):
+        """Drive an input from outside (None: release it to its pull)."""
+        n = _pin_id(pin)
+        before = self.pin_level(n)
+        self._drive[n] = _UNDRIVEN if level is None else (1 if level else 0)
+        after = self.pin_level(n)
+        irq = self._irq[n]
+        if irq is not None and before != after:
+            handler, trigger = irq
+            if (after and trigger & Pin.IRQ_RISING) or (not after and trigger & Pin.IRQ_FALLING):
+                handler(Pin(n))
+
+    def pin_level(self, pin):
+        """The level on a pin as the board and the outside both see it."""
+        n = _pin_id(pin)
+        mode = self._mode[n]
+        if mode == 1:  # push-pull output drives the pad
+            return self._latch[n]
+        if mode == 2 and self._latch[n] == 0:  # open drain pulls low
+            return 0
+        d = self._drive[n]
+        if d != _UNDRIVEN:
+            return d
+        return 1 if self._pull[n] == 1 else 0
+
+    # ADC
+    def set_adc_u16(self, channel, value):
+        if not 0 <= value <= 65535:
+            raise ValueError("ADC value %r outside 0..65535" % (value,))
+        self._adc[channel] = value
+
+    def set_adc_volts(self, channel, volts, vref=3.3):
+        """Voltage at the ADC pin, quantised as the RP2350's 12-bit ADC reads it."""
+        raw = int(volts / vref * 4095 + 0.5)
+        raw = 0 if raw < 0 else (4095 if raw > 4095 else raw)
+        # MicroPython scales the 12-bit sample to 16 bits this way.
+        self._adc[channel] = (raw << 4) | (raw >> 8)
+
+    # PWM
+    def pwm_freq(self, pin):
+        n = _pin_id(pin)
+        return self._slice_freq[(n >> 1) & 7] if self._pwm_on[n] else 0
+
+    def pulse_ns(self, pin):
+        """High time of the PWM output on ``pin`` in ns (0 when off)."""
+        n = _pin_id(pin)
+        if not self._pwm_on[n]:
+            return 0
+        period = 1000000000 // self._slice_freq[(n >> 1) & 7]
+        if self._duty_is_ns[n]:
+            high = self._duty[n] if self._duty[n] < period else period
+        else:
+            high = int(self._duty[n] * period / 65535.0 + 0.5)
+        return period - high if self._pwm_invert[n] else high
+
+    # UART
+    def uart(self, uart_id):
+        """The far end of UART ``uart_id``: ``feed(data)``, ``take()``."""
+        return self._uart[uart_id]
+
+    # WDT
+    def _wdt_start(self, timeout_ms):
+        self.wdt_timeout_ms = timeout_ms
+        self._wdt_last = time.ticks_us()
+
+    def _wdt_enable(self, on):
+        if on and not self.wdt_timeout_ms and self._wdt_saved:
+            self.wdt_timeout_ms = self._wdt_saved
+            self._wdt_last = time.ticks_us()
+        elif not on and self.wdt_timeout_ms:
+            self._wdt_saved = self.wdt_timeout_ms
+            self.wdt_timeout_ms = 0
+
+    def _wdt_feed(self):
+        self.wdt_feeds += 1
+        self._wdt_last = time.ticks_us()
+
+    def wdt_expired(self):
+        """True when the watchdog runs and was not fed within its time-out."""
+        if not self.wdt_timeout_ms:
+            return False
+        return time.ticks_diff(time.ticks_us(), self._wdt_last) > self.wdt_timeout_ms * 1000
+
+    def check_watchdog(self):
+        """Reset the board (raise ``BoardReset``) if the watchdog expired."""
+        if self.wdt_expired():
+            self.power_cycle(WDT_RESET)
+            raise BoardReset(WDT_RESET, "watchdog expired")
+
+
+#: The other side of every peripheral: what the twin drives and reads.
+twin = _Twin()

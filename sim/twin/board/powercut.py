@@ -1,0 +1,95 @@
+"""Cut the power in the middle of a file operation, deterministically.
+
+MicroPython code for the twin and the tests. ``PowerCutFiles(files, cut_at)``
+wraps a file-system object with the ``Files`` interface of
+``firmware/param_store.py`` (``open``, ``rename``, ``remove``, ``exists``)
+and counts every step that changes flash: opening a file for writing
+(which truncates it), each ``write``, each ``close`` of a written file,
+each ``rename`` and ``remove``. At step ``cut_at`` (1-based) the power goes:
+an open for writing has already truncated the file, a write puts only the
+first half of its bytes on flash, a close, rename or remove does not happen,
+and ``PowerCut`` (a ``BaseException``, which the
+firmware's own error handling cannot catch) is raised. From then on every
+operation raises ``PowerCut``: the board is dead until the test or the twin
+"reboots" it with a fresh store on the plain file system. ``cut_at=0``
+never cuts and just counts ``steps``.
+"""
+
+
+class PowerCut(BaseException):
+    """The supply went at this point of a file operation."""
+
+
+class _File:
+    def __init__(self, owner, f):
+        self._owner = owner
+        self._f = f
+
+    def write(self, data):
+        owner = self._owner
+        if owner.step():
+            self._f.write(data[:len(data) // 2])
+            self._f.close()
+            raise PowerCut("power cut writing %d bytes" % len(data))
+        return self._f.write(data)
+
+    def read(self, *args):
+        self._owner.alive()
+        return self._f.read(*args)
+
+    def close(self):
+        owner = self._owner
+        if owner.dead:
+            self._f.close()  # the host file; the board is already off
+            raise PowerCut("power is off")
+        if owner.step():
+            self._f.close()
+            raise PowerCut("power cut closing the file")
+        self._f.close()
+
+
+class PowerCutFiles:
+    """A ``Files`` wrapper that cuts the power at step ``cut_at``."""
+
+    def __init__(self, files, cut_at=0):
+        self._files = files
+        self.cut_at = cut_at
+        self.steps = 0
+        self.dead = False
+
+    def alive(self):
+        if self.dead:
+            raise PowerCut("power is off")
+
+    def step(self):
+        """Count one flash-changing step; True when the power goes now."""
+        self.alive()
+        self.steps += 1
+        if self.cut_at and self.steps == self.cut_at:
+            self.dead = True
+            return True
+        return False
+
+    def open(self, path, mode):
+        if "w" in mode or "a" in mode:
+            f = self._files.open(path, mode)  # truncated even if the cut comes now
+            if self.step():
+                f.close()
+                raise PowerCut("power cut opening %s" % path)
+            return _File(self, f)
+        self.alive()
+        return self._files.open(path, mode)
+
+    def rename(self, old, new):
+        if self.step():
+            raise PowerCut("power cut before renaming %s" % old)
+        self._files.rename(old, new)
+
+    def remove(self, path):
+        if self.step():
+            raise PowerCut("power cut before removing %s" % path)
+        self._files.remove(path)
+
+    def exists(self, path):
+        self.alive()
+        return self._files.exists(path)

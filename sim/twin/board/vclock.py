@@ -1,0 +1,178 @@
+"""A virtual clock with the board's ``time`` API: simulated time, in lockstep.
+
+The twin puts this module into ``sys.modules['time']`` before it imports the
+firmware (MicroPython's built-in ``time`` cannot be shadowed by a file, but a
+``sys.modules`` entry wins), so the firmware's own ``import time`` gets it and
+runs unchanged. Time stands still while code runs and moves only when the
+firmware sleeps (or the twin calls ``advance``): a run is deterministic and
+goes as fast as the computer allows.
+
+Firmware side, as on an rp2 board: ``ticks_us``, ``ticks_ms``, ``ticks_cpu``,
+``ticks_diff``, ``ticks_add``, ``sleep``, ``sleep_ms``, ``sleep_us``,
+``time``, ``time_ns``, ``gmtime``, ``localtime``, ``mktime``. Ticks wrap at
+2**30 as MicroPython's do on the boards, so wrap-around bugs show up here too
+(``reset(start_us=...)`` starts the clock just before a wrap).
+
+Twin side:
+
+- ``set_hook(fn)``: ``fn(dt_us)`` is called every time simulated time moves
+  forward, after it moved (``ticks_us()`` inside the hook is already the new
+  time). The lockstep twin steps the dynamics there and feeds the emulated
+  devices; a hook may raise (the emulated watchdog does, to reset the board).
+- ``advance(dt_us)``: move time forward from outside the firmware.
+- ``set_tick_cost_us(n)``: every ``ticks_us``/``ticks_ms``/``ticks_cpu`` call
+  also advances time by ``n`` us, so a loop that polls the clock without
+  sleeping still makes progress (0, the default, is free code).
+- ``elapsed_us()``: simulated time since ``reset``, not wrapped.
+
+Everything here is small-integer arithmetic: nothing allocates on a 31-bit
+small-int build except ``time`` and ``time_ns`` (whose values exceed 2**30,
+as on the board) and ``elapsed_us`` after about 18 minutes.
+"""
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+import time as _host_time  # the real module, kept for calendar conversions
+
+_TICKS_PERIOD = const(0x40000000)
+_TICKS_MAX = const(0x3FFFFFFF)
+_TICKS_HALF = const(0x20000000)
+_US_PER_S = const(1000000)
+#: Longest single advance: sleeps longer than this are cut into steps so no
+#: product leaves the small integers.
+_MAX_STEP_US = const(1000000)
+
+#: ``time.time()`` at ``reset()``: 2021-01-01 00:00:00 UTC, where an rp2
+#: board's clock starts when nothing set it.
+EPOCH_S = 1609459200
+
+_us = 0          # ticks_us, wrapped at 2**30
+_ms = 0          # ticks_ms, wrapped at 2**30
+_ms_frac = 0     # microseconds into the current millisecond
+_epoch = EPOCH_S  # time.time() at reset (above 2**30: kept out of the step)
+_s_frac = 0      # microseconds into the current second
+_elapsed_s = 0   # whole seconds since reset
+_hook = None
+_tick_cost = 0
+
+
+def reset(start_us=0, epoch_s=EPOCH_S):
+    """Back to a fresh board: ticks at ``start_us``, wall clock at ``epoch_s``."""
+    global _us, _ms, _ms_frac, _epoch, _s_frac, _elapsed_s
+    _us = start_us & _TICKS_MAX
+    _ms = (start_us // 1000) & _TICKS_MAX
+    _ms_frac = start_us % 1000
+    _epoch = epoch_s
+    _s_frac = 0
+    _elapsed_s = 0
+
+
+def set_hook(fn):
+    """Install ``fn(dt_us)``, called after every advance of time (None removes it)."""
+    global _hook
+    _hook = fn
+
+
+def set_tick_cost_us(us):
+    """Time every clock reading costs (0: readings are free)."""
+    global _tick_cost
+    if us < 0:
+        raise ValueError("tick cost must be >= 0 us, got %d" % us)
+    _tick_cost = us
+
+
+def _step(dt):
+    global _us, _ms, _ms_frac, _s_frac, _elapsed_s
+    _us = (_us + dt) & _TICKS_MAX
+    f = _ms_frac + dt
+    _ms = (_ms + f // 1000) & _TICKS_MAX
+    _ms_frac = f % 1000
+    f = _s_frac + dt
+    _elapsed_s += f // _US_PER_S
+    _s_frac = f % _US_PER_S
+    if _hook is not None:
+        _hook(dt)
+
+
+def advance(dt_us):
+    """Move simulated time forward by ``dt_us`` (>= 0) and run the hook."""
+    if dt_us < 0:
+        raise ValueError("time cannot go back: advance(%d)" % dt_us)
+    while dt_us > _MAX_STEP_US:
+        _step(_MAX_STEP_US)
+        dt_us -= _MAX_STEP_US
+    if dt_us > 0:
+        _step(dt_us)
+
+
+def elapsed_us():
+    """Simulated microseconds since ``reset()`` (a big integer after ~18 min)."""
+    return _elapsed_s * _US_PER_S + _s_frac
+
+
+# ----------------------------------------------------------- board's API
+def ticks_us():
+    if _tick_cost:
+        advance(_tick_cost)
+    return _us
+
+
+def ticks_ms():
+    if _tick_cost:
+        advance(_tick_cost)
+    return _ms
+
+
+def ticks_cpu():
+    return ticks_us()
+
+
+def ticks_diff(a, b):
+    return ((a - b + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
+
+
+def ticks_add(t, delta):
+    return (t + delta) & _TICKS_MAX
+
+
+def sleep_us(us):
+    if us > 0:
+        advance(us)
+
+
+def sleep_ms(ms):
+    while ms > 1000:
+        advance(_MAX_STEP_US)
+        ms -= 1000
+    if ms > 0:
+        advance(ms * 1000)
+
+
+def sleep(seconds):
+    whole = int(seconds)
+    sleep_ms(whole * 1000)
+    advance(int((seconds - whole) * _US_PER_S))
+
+
+def time():
+    return _epoch + _elapsed_s
+
+
+def time_ns():
+    return (_epoch + _elapsed_s) * 1000000000 + _s_frac * 1000
+
+
+def gmtime(secs=None):
+    return _host_time.gmtime(time() if secs is None else secs)
+
+
+def localtime(secs=None):
+    return _host_time.localtime(time() if secs is None else secs)
+
+
+def mktime(t):
+    return _host_time.mktime(t)

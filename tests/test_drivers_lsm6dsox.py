@@ -1,0 +1,121 @@
+"""LSM6DSOX driver against the emulated chip on the real MicroPython."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE
+from roboray.sim import twin
+
+pytestmark = pytest.mark.micropython
+
+G = 9.80665
+ACCEL_LSB = 0.122e-3 * G
+GYRO_LSB = 17.50e-3 * math.pi / 180
+
+
+@pytest.fixture(scope="module")
+def board():
+    mp = twin.interpreter()
+    yield mp
+    mp.close()
+
+
+@pytest.fixture
+def mp(board):
+    twin.reset(board)
+    board.exec(
+        "import machine\n"
+        "from roboray.sim.twin.board import vclock, i2c_device\n"
+        "from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice\n"
+        "from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice\n"
+        "from roboray.firmware.drivers.lsm6dsox import LSM6DSOX\n"
+        "i2c = machine.I2C(0, sda=machine.Pin(4), scl=machine.Pin(5))\n"
+        "dev = machine.twin.attach(0, LSM6DSOXDevice())\n"
+        "def step(n=1):\n"
+        "    ok = 0\n"
+        "    for _ in range(n):\n"
+        "        vclock.advance(10000)\n"
+        "        ok += drv.read()\n"
+        "    return ok\n"
+    )
+    return board
+
+
+def test_configures_the_chip_and_scales_to_si(mp):
+    mp.exec("drv = LSM6DSOX(i2c)\n"
+            "dev.set_accel(1.0, -2.0, 9.80665)\ndev.set_gyro(0.1, -0.2, 0.3)\ndev.set_temperature(31.5)")
+    assert mp.eval("[dev.regs[0x10], dev.regs[0x11], dev.regs[0x12]]") == [0x58, 0x54, 0x44]
+    assert mp.eval("step(100)") == 100
+    accel = mp.eval("list(drv.accel)")
+    gyro = mp.eval("list(drv.gyro)")
+    for got, want in zip(accel, (1.0, -2.0, G)):
+        assert abs(got - want) <= ACCEL_LSB / 2 + 1e-6
+    for got, want in zip(gyro, (0.1, -0.2, 0.3)):
+        assert abs(got - want) <= GYRO_LSB / 2 + 1e-7
+    assert mp.eval("drv.temp_c[0]") == pytest.approx(31.5, abs=1 / 256)
+    assert mp.eval("drv.health.healthy()") is True
+
+
+def test_full_scale_clips_at_4_g_and_500_dps(mp):
+    # (the 17.50 mdps/LSB scale reaches 573 dps; 20 rad/s is beyond it)
+    mp.exec("drv = LSM6DSOX(i2c)\ndev.set_accel(0.0, 50.0, -50.0)\ndev.set_gyro(20.0, 0.0, -20.0)\nstep()")
+    assert mp.eval("list(drv.raw[1:])") == [32767, 0, -32768, 0, 32767, -32768]
+    assert mp.eval("drv.accel[1]") == pytest.approx(32767 * ACCEL_LSB, rel=1e-6)
+
+
+def test_reading_faster_than_the_output_rate_is_stale_not_new(mp):
+    # 208 Hz: two reads 1 ms apart see one sample
+    mp.exec("drv = LSM6DSOX(i2c)\nstep()\nvclock.advance(1000)\nr = drv.read()")
+    assert mp.eval("r") is False
+    assert mp.eval("drv.health.last_error") == ERR_STALE
+    assert mp.eval("drv.health.healthy()") is True  # one stale read is no failure
+
+
+def test_a_read_allocates_only_its_floats(mp):
+    mp.exec("drv = LSM6DSOX(i2c)\nstep()")
+    # six axes and, with a new temperature, two more boxed floats: 8 * 16 bytes
+    assert mp.alloc_bytes("vclock.advance(10000); drv.read()") <= 8 * 16
+
+
+def test_absent_or_wrong_part_is_named_by_address(mp):
+    mp.exec("machine.twin.detach(0, 0x6A)")
+    with pytest.raises(Exception, match=r"OSError: LSM6DSOX at I2C address 0x6A: no answer"):
+        mp.exec("LSM6DSOX(i2c)")
+    mp.exec("machine.twin.attach(0, LIS3MDLDevice(address=0x6A))")
+    with pytest.raises(Exception, match=r"WHO_AM_I is 0x3D, expected 0x6C"):
+        mp.exec("LSM6DSOX(i2c)")
+
+
+def test_nack_counts_bus_errors_and_health_drops_then_returns(mp):
+    mp.exec("drv = LSM6DSOX(i2c)\nstep(5)\ndev.set_fault(i2c_device.FAULT_NACK)\nstep(8)")
+    assert mp.eval("drv.health.last_error") == ERR_BUS
+    assert mp.eval("drv.health.counts[%d]" % ERR_BUS) == 8
+    assert mp.eval("drv.health.healthy()") is False
+    mp.exec("dev.set_fault(i2c_device.FAULT_NONE)\nstep(2)")
+    assert mp.eval("drv.health.healthy()") is True
+
+
+def test_garbage_shows_as_impossible_values(mp):
+    mp.exec("drv = LSM6DSOX(i2c)\nstep(5)\ndev.set_fault(i2c_device.FAULT_GARBAGE)\nstep(50)")
+    assert mp.eval("drv.health.counts[%d]" % ERR_RANGE) > 30
+    assert mp.eval("drv.health.healthy()") is False
+
+
+def test_a_part_that_reset_itself_is_reconfigured(mp):
+    # A supply dip resets the chip to power-down: no more samples, so reads go
+    # stale; after ten the driver writes its configuration again.
+    mp.exec("drv = LSM6DSOX(i2c)\nstep(5)\ndev.power_on()\nstep(10)")
+    assert mp.eval("drv.health.counts[%d]" % ERR_STALE) == 10
+    assert mp.eval("drv.reconfigurations") == 1
+    assert mp.eval("step(3)") == 3
+    assert mp.eval("drv.health.healthy()") is True
+
+
+def test_stuck_output_is_not_judged_by_its_value(mp):
+    mp.exec("drv = LSM6DSOX(i2c)\ndev.set_accel(0.0, 0.0, 9.80665)\nstep(3)\n"
+            "dev.set_fault(i2c_device.FAULT_STICK)\ndev.set_accel(3.0, 0.0, 9.0)\nstep(500)")
+    assert mp.eval("drv.health.errors") == 0
+    assert mp.eval("drv.accel[0]") == 0.0
