@@ -259,6 +259,8 @@ class Link:
                 if not _same_f32(m.param_value, value):
                     self.wait(lambda m: m.get_type() == "STATUSTEXT", 0.3)
                     why = self.texts[-1] if self.texts else "refused"
+                    if why.startswith(name + ": "):
+                        why = why[len(name) + 2:]
                     raise LinkError("%s not set to %s: %s (value stays %s)" % (name, fmt_value(value, ptype), why,
                                                                                fmt_value(m.param_value, ptype)))
                 return m.param_value
