@@ -23,8 +23,8 @@ class Truth:
     """A trajectory sampled at times ``t``; every array's first axis is time."""
 
     t: np.ndarray                   #: (N,) s
-    position_ned: np.ndarray        #: (N, 3) m, centre of buoyancy
-    velocity_ned: np.ndarray        #: (N, 3) m/s, centre of buoyancy
+    position_ned: np.ndarray        #: (N, 3) m, body origin O (centre of the centre plate)
+    velocity_ned: np.ndarray        #: (N, 3) m/s, of O, over ground (current included)
     quaternion: np.ndarray          #: (N, 4) [w, x, y, z], body -> NED
     omega_body: np.ndarray          #: (N, 3) rad/s, body rates
     specific_force_imu: np.ndarray  #: (N, 3) m/s^2, body frame, at the IMU: a_imu - g
