@@ -13,14 +13,16 @@ from __future__ import annotations
 
 import hashlib
 import random
+import struct
 
 import pytest
 
 from roboray.shared.mavlink import messages as M
+from roboray.shared.mavlink.frame import Writer
 from roboray.shared.mavlink.parser import Parser
 from roboray.shared.mavlink.signing import Signing, key_from_passphrase
 
-from test_mavlink_helpers import MSGIDS, our_encode, random_fields
+from test_mavlink_helpers import MSGIDS, flat, our_encode, random_fields
 
 KEY = key_from_passphrase("fuzz")
 N_INPUTS = 100_000
@@ -30,23 +32,26 @@ MP_INPUTS = 4_000
 def build(n_inputs: int, seed: int = 2024):
     """(stream, valid frames in order, damaged count, counters expected)."""
     rng = random.Random(seed)
-    pool = {mid: [random_fields(mid, rng) for _ in range(4)] for mid in MSGIDS}
+    pool = {mid: [flat(mid, random_fields(mid, rng)) for _ in range(4)] for mid in MSGIDS}
+    plain, v1w = Writer(1, 1), Writer(1, 1, mavlink1=True)
+    signing = Signing(KEY, 3)
+    signing.hi = 1 << 16
+    signed = Writer(1, 1, signing)
     seq = 0
-    ts = 1 << 40
     out = bytearray()
     valid: list[bytes] = []
     damaged = 0
     flipped = 0
 
-    def frame(signed: bool = False) -> bytes:
-        nonlocal seq, ts
+    def frame(sign: bool = False) -> bytes:
+        nonlocal seq
         mid = rng.choice(MSGIDS)
-        v1 = not signed and mid < 256 and rng.random() < 0.2
-        ts += 1
-        f = our_encode(mid, rng.choice(pool[mid]), seq & 0xFF, 1, 1, mavlink1=v1,
-                       key=KEY if signed else None, link_id=3, timestamp=ts)
+        w = signed if sign else (v1w if mid < 256 and rng.random() < 0.2 else plain)
+        w.clear(M.TABLE[mid][M.MAX_LEN])
+        struct.pack_into(M.TABLE[mid][M.FMT], w.buf, w.payload, *rng.choice(pool[mid]))
+        n = w.finish(mid, seq & 0xFF)
         seq += 1
-        return f
+        return bytes(w.buf[:n])
 
     for k in range(n_inputs):
         kind = k % 4
@@ -75,7 +80,7 @@ def build(n_inputs: int, seed: int = 2024):
             out += f
             valid.append(f)
         else:  # two valid frames (one signed) split at one byte boundary
-            pair = frame(signed=True) + frame()
+            pair = frame(sign=True) + frame()
             valid.append(pair[:pair[1] + 12 + 13])
             valid.append(pair[len(valid[-1]):])
             out += pair  # the chunking below splits the stream everywhere
@@ -139,6 +144,7 @@ def test_split_at_every_byte_boundary():
 
 
 _MP_RUN = """
+from roboray.shared.mavlink.frame import Writer
 from roboray.shared.mavlink.parser import Parser
 from roboray.shared.mavlink.signing import Signing
 import hashlib
