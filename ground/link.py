@@ -14,11 +14,13 @@ takes its signing timestamps from ours.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import logging
 import math
 import os
+import sys
 import time
 from typing import Any, Callable, Optional
 
@@ -105,9 +107,11 @@ class Link:
         if _is_serial(master) and not os.path.exists(master.split(",")[0]):
             raise _open_error(master, FileNotFoundError(errno.ENOENT, "No such file"))
         try:
-            self.conn: Any = mavutil.mavlink_connection(
-                master, baud=self.baud, source_system=source_system,
-                source_component=GCS_COMPONENT, autoreconnect=False)
+            # pymavlink prints its connection retries; stdout is for results
+            with contextlib.redirect_stdout(sys.stderr):
+                self.conn: Any = mavutil.mavlink_connection(
+                    master, baud=self.baud, source_system=source_system,
+                    source_component=GCS_COMPONENT, autoreconnect=False)
         except Exception as exc:  # pyserial, socket and pymavlink errors
             raise _open_error(master, exc) from exc
         self.mav = self.conn.mav
@@ -171,7 +175,10 @@ class Link:
                 self.target_component = m.get_srcComponent()
                 self.vehicle_heartbeat = m
                 return m
-        hint = "check the radio is powered and paired, the baud rate (--baudrate)"
+        if _is_serial(self.master):
+            hint = "check the radio is powered and paired, the baud rate (--baudrate)"
+        else:
+            hint = "check that the vehicle or its bridge sends to this address"
         if self.key is not None:
             hint += " and that the vehicle has the same signing key"
         raise LinkError("no heartbeat on %s within %g s: %s" % (self.describe(), timeout, hint))
