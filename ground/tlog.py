@@ -55,18 +55,47 @@ def frame_length(data: bytes, pos: int) -> int:
     return 0
 
 
+def _plausible(data: bytes, pos: int) -> int:
+    """Frame length of a record starting at ``pos`` whose timestamp and header look right, else 0."""
+    if pos + 8 >= len(data):
+        return 0
+    (t_us,) = _TS.unpack_from(data, pos)
+    flen = frame_length(data, pos + 8)
+    if not flen or not _TS_MIN <= t_us <= _TS_MAX or pos + 8 + flen > len(data):
+        return 0
+    return flen
+
+
+def _crc_ok(frame: bytes) -> bool:
+    v2 = frame[0] == 0xFD
+    hdr = 10 if v2 else 6
+    entry = TABLE.get((frame[7] | frame[8] << 8 | frame[9] << 16) if v2 else frame[5])
+    if entry is None:
+        return False
+    end = hdr + frame[1]
+    c = crc.accumulate_byte(crc.accumulate(crc.CRC_INIT, frame, 1, end), entry[CRC_EXTRA])
+    return frame[end] | frame[end + 1] << 8 == c
+
+
 def records(data: bytes) -> Iterator[tuple[int, bytes]]:
-    """(timestamp_us, frame) for each record; damaged stretches are skipped."""
+    """(timestamp_us, frame) for each record; damaged stretches are skipped.
+
+    A record is trusted when its frame's checksum holds, or when another
+    record (or the end of the file) follows it; otherwise the search moves
+    on a byte, so a record cut short cannot swallow the one after it.
+    """
     pos = 0
     n = len(data)
     while pos + 8 < n:
-        (t_us,) = _TS.unpack_from(data, pos)
-        flen = frame_length(data, pos + 8)
-        if flen and _TS_MIN <= t_us <= _TS_MAX and pos + 8 + flen <= n:
-            yield t_us, data[pos + 8:pos + 8 + flen]
-            pos += 8 + flen
-        else:
-            pos += 1  # resynchronise on the next plausible record
+        flen = _plausible(data, pos)
+        if flen:
+            frame = data[pos + 8:pos + 8 + flen]
+            nxt = pos + 8 + flen
+            if _crc_ok(frame) or nxt == n or _plausible(data, nxt):
+                yield _TS.unpack_from(data, pos)[0], frame
+                pos = nxt
+                continue
+        pos += 1  # resynchronise on the next plausible record
 
 
 class Decoder:
