@@ -74,14 +74,22 @@ def committed_src(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def deployed(committed_src, tmp_path_factory) -> dict:
-    """A board file system holding one deployment of the committed code."""
+    """A board file system holding one deployment of the committed code.
+
+    The first deployment: onto a board where another program runs, which
+    the deployment must stop (Ctrl-C) to reach the REPL, as on a Pico.
+    """
     work = tmp_path_factory.mktemp("deployed")
+    fs = work / "fs"
+    fs.mkdir()
+    (fs / "main.py").write_text("import time\nwhile True:\n    time.sleep_ms(10)\n")
     b = build(work / "out", src_root=committed_src)
-    with VirtualBoard(fs_dir=work / "fs") as vb:
+    with VirtualBoard(fs_dir=fs) as vb:
         with Board(vb.device) as board:
             report = deploy(board, b, reset=False)
-    assert report["files_copied"] == len(b.files) and report["verified"]
-    return {"src": committed_src, "out": work / "out", "fs": work / "fs", "build": b}
+        imported = board_exec(vb.device, "import %s\nprint('ok')" % ", ".join(modules_of(b)))
+    return {"src": committed_src, "out": work / "out", "fs": fs, "build": b, "report": report,
+            "imported": imported, "fs_after": snapshot(fs)}
 
 
 @pytest.fixture
@@ -97,27 +105,17 @@ def board(deployed, tmp_path):
 
 
 # --------------------------------------------------------------- copying
-def test_first_deploy_copies_everything_and_interrupts_the_running_program(committed_src, tmp_path):
-    # Something else runs on the board: the deployment must stop it (Ctrl-C)
-    # to reach the REPL, as on a Pico.
-    fs = tmp_path / "fs"
-    fs.mkdir()
-    (fs / "main.py").write_text("import time\nwhile True:\n    time.sleep_ms(10)\n")
-    b = build(tmp_path / "out", src_root=committed_src)
-    with VirtualBoard(fs_dir=fs) as vb:
-        with Board(vb.device) as board:
-            report = deploy(board, b, reset=False)
-        assert "import roboray.shared.quat\n" not in board_exec(vb.device, "print(1)")
-        imported = board_exec(vb.device, "import %s\nprint('ok')" % ", ".join(modules_of(b)))
-    assert imported.strip() == "ok"
+def test_first_deploy_copies_everything_and_interrupts_the_running_program(deployed):
+    b, report, fs = deployed["build"], deployed["report"], deployed["fs_after"]
+    assert deployed["imported"].strip() == "ok"
     assert report["files_copied"] == len(b.files) and report["files_unchanged"] == 0
     assert report["bytes_sent"] == sum(e["size"] for e in b.files.values())
     assert report["verified"] is True and report["manifest"] == "no manifest on the board"
     for path, entry in b.files.items():
-        assert hashlib.sha256((fs / path.lstrip("/")).read_bytes()).hexdigest() == entry["sha256"]
-    on_board = json.loads((fs / manifest.BOARD_PATH.lstrip("/")).read_text())
+        assert hashlib.sha256(fs[path.lstrip("/")]).hexdigest() == entry["sha256"]
+    on_board = json.loads(fs[manifest.BOARD_PATH.lstrip("/")])
     assert on_board["complete"] is True and on_board["files"] == b.files
-    assert not list(fs.rglob("*" + TMP_SUFFIX))
+    assert not [p for p in fs if p.endswith(TMP_SUFFIX)]
 
 
 def test_unchanged_changed_and_deleted_sources(board):

@@ -168,21 +168,21 @@ class Board:
             raise PortUnavailable("no such port: %s (is the board plugged in? --port auto finds it)" % self.device)
         try:
             with _quiet():
-                self._t = SerialTransport(self.device, baudrate=115200, timeout=self.timeout_s)
+                t = self._t = SerialTransport(self.device, baudrate=115200, timeout=self.timeout_s)
         except TransportError:
             raise self._diagnose() from None
-        write = self._t.serial.write
+        write = t.serial.write
 
         def counted(data: bytes) -> Optional[int]:
             self.bytes_written += len(data)
             return write(data)
 
-        self._t.serial.write = counted  # type: ignore[method-assign]
+        t.serial.write = counted  # type: ignore[method-assign]
         try:
             with _quiet():
                 # Ctrl-C stops the application, Ctrl-A enters the raw REPL,
                 # Ctrl-D there soft-resets without running main.py: a clean heap.
-                self._t.enter_raw_repl(soft_reset=True, timeout_overall=self.timeout_s)
+                t.enter_raw_repl(soft_reset=True, timeout_overall=self.timeout_s)
         except TransportError:
             self.close()
             raise BoardNotAnswering(

@@ -145,7 +145,7 @@ def deploy(board: Board, build: Build, dry_run: bool = False, rehash: bool = Fal
     survey, previous, why, board_hashes = survey_board(board, build, rehash)
     check_compatible(build, survey)
     plan = Plan(build, survey, board_hashes, previous)
-    result = {
+    result: dict = {
         "port": board.device,
         "banner": build.banner,
         "dry_run": dry_run,
@@ -167,7 +167,7 @@ def deploy(board: Board, build: Build, dry_run: bool = False, rehash: bool = Fal
                              "remove it (mpremote rm :%s) or deploy with --source" % (py, py[:-3] + ".mpy", py))
     manifest_bytes = manifest.encode(dict(build.manifest, complete=True))
     # Ownership survives an interruption: old and new files both listed.
-    pending = dict(build.manifest, complete=False)
+    pending: dict = dict(build.manifest, complete=False)
     pending["files"] = dict(sorted({**(previous["files"] if previous else {}), **build.files}.items()))
     pending_bytes = manifest.encode(pending)
     if plan.changes:
@@ -245,7 +245,7 @@ def status(board: Board, build: Build) -> dict:
         h = hashes[path]
         (missing if h is None else same if h == e["sha256"] else differ).append(path)
     extra = sorted(p for p in owned - set(build.files) if hashes.get(p) is not None)
-    board_info = {"manifest": "present" if previous else why}
+    board_info: dict = {"manifest": "present" if previous else why}
     if previous:
         board_info.update({k: previous.get(k) for k in ("version", "revision", "dirty", "banner", "complete")})
     return {
