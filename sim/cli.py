@@ -10,8 +10,8 @@ from roboray.tools.cli import make_parser, run
 #: One module a topic; each has ``register(sub, bench)`` adding its commands
 #: to the top level and to ``roboray-sim bench``.
 TOPICS = (
+    "roboray.sim.commands.dynamics",
     "roboray.sim.commands.interpreter",
-    "roboray.sim.commands.mavlink",
     "roboray.sim.commands.mavlink",
     "roboray.sim.commands.flash",
 )
