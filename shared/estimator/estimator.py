@@ -1,0 +1,488 @@
+"""The composite estimator the firmware calls: attitude, depth, position,
+health, with one time-stamped call per sensor sample.
+
+See the package docstring (``roboray.shared.estimator``) for the step API.
+
+Load levelling: ``mag()``, ``depth()``, ``fix()`` and ``wings()`` only store
+their sample; every ``imu()`` then does its prediction plus at most one
+extra job, chosen in this order: a pending fix, a pending depth sample, the
+10 Hz housekeeping (covariances to now, attitude variance model,
+quaternion normalisation, descent-model gain), a pending magnetometer
+sample. A cycle in which every sensor arrives costs one IMU step plus the
+dearest job, and the rest follow in the next steps, each corrected for its
+age through its time stamp. A magnetometer sample still waiting when the
+next one arrives is replaced (the newer wins).
+"""
+
+import math
+from array import array
+
+from roboray.shared.estimator import health as _h
+from roboray.shared.estimator.attitude import HEADING_REJECTED_INNOVATION, HEADING_USED, Attitude
+from roboray.shared.estimator.descent_model import TAU_S, glide_gain
+from roboray.shared.estimator.horizontal import FIX_REJECTED, FIX_TOO_OLD, Horizontal
+from roboray.shared.estimator.ticks import ticks_diff
+from roboray.shared.estimator.vertical import Vertical
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+_G = 9.80665
+_PEND_MAG = const(1)
+_PEND_DEPTH = const(2)
+_PEND_FIX = const(4)
+_HOUSEKEEPING_STEPS = const(10)
+_STALE_US = const(50000)
+_MAX_GAP_US = const(250000)
+#: Degrees per radian over four wings: mean fold in degrees from the sum of angles.
+_QUARTER_DEG_PER_RAD = 14.32394487827058
+
+
+def _variance_step(T, k, q, r):
+    """(a, b) of var <- a var + b: exact discretisation over ``T`` s of
+    d var/dt = q + k^2 r - 2 k var (a first-order loop of gain ``k`` 1/s,
+    driven by rate noise ``q`` and reference noise ``r``)."""
+    if k <= 0.0:
+        return (1.0, q * T)
+    a = math.exp(-2.0 * k * T)
+    return (a, (q + k * k * r) / (2.0 * k) * (1.0 - a))
+
+
+class Estimator:
+    """Attitude, depth and position estimator (board code).
+
+    Parameters
+    ----------
+    attitude, vertical, horizontal:
+        The three filters; ``None`` builds each with its defaults.
+    imu_position, port_position:
+        IMU and pressure port in the body frame (m, from the centre of
+        buoyancy).
+    fluid_density:
+        kg/m^3 (1000 fresh water, 1025 sea water).
+    surface_pressure_pa:
+        Pressure at depth 0 (atmosphere), Pa; see ``zero_depth``.
+    startup_s:
+        Duration of the fast-gain alignment after the first sample or a
+        reset.
+    servo_hold_s:
+        The magnetometer is ignored this long after a wing command changes
+        (servo current disturbs it).
+    timeouts_us:
+        (imu, mag, depth, fix) time-outs of the health flags.
+    tilt_var_max, depth_var_max, position_var_max:
+        Variances above which an estimate stops being valid.
+    """
+
+    def __init__(self, attitude=None, vertical=None, horizontal=None,
+                 imu_position=(0.0, 0.0, -0.045), port_position=(0.0, 0.0, -0.05), fluid_density=1000.0,
+                 surface_pressure_pa=101325.0, startup_s=8.0, servo_hold_s=0.3,
+                 timeouts_us=(_h.TIMEOUT_IMU_US, _h.TIMEOUT_MAG_US, _h.TIMEOUT_DEPTH_US, _h.TIMEOUT_FIX_US),
+                 tilt_var_max=0.0012, depth_var_max=0.0025, position_var_max=0.0625,
+                 tilt_psd=1e-6, tilt_ref_psd=5e-4, heading_psd=1e-6, heading_ref_psd=2e-4,
+                 heading_var_floor=7.6e-5):
+        if fluid_density <= 0.0:
+            raise ValueError("fluid_density %r must be > 0 kg/m^3" % fluid_density)
+        if len(port_position) != 3 or len(imu_position) != 3:
+            raise ValueError("imu_position and port_position need 3 numbers each")
+        if len(timeouts_us) != 4 or min(timeouts_us) <= 0:
+            raise ValueError("timeouts_us needs 4 positive tick counts, got %r" % (timeouts_us,))
+        self.att = attitude if attitude is not None else Attitude()
+        self.vert = vertical if vertical is not None else Vertical()
+        self.hor = horizontal if horizontal is not None else Horizontal(tau=TAU_S)
+
+        # ----- outputs, written every IMU step
+        #: Body -> NED quaternion [w, x, y, z].
+        self.q = array("f", [1.0, 0.0, 0.0, 0.0])
+        #: Bias-corrected body rates, rad/s.
+        self.rates = array("f", [0.0, 0.0, 0.0])
+        #: [roll, pitch, yaw], rad (Z-Y-X).
+        self.euler = array("f", [0.0, 0.0, 0.0])
+        #: Depth, vertical speed, north, east, v_north, v_east (``health.NAV_*``).
+        self.nav = array("f", [0.0] * _h.NAV_SIZE)
+        #: Variances (``health.COV_*``), refreshed at 10 Hz and on updates.
+        self.cov = array("f", [0.0] * _h.COV_SIZE)
+        #: Health bits, valid flag, rejection counts (``health.STATUS_*``).
+        self.status = array("i", [0] * _h.STATUS_SIZE)
+        #: Last innovation test ratios (``health.INNOV_*``).
+        self.innovation = array("f", [0.0] * _h.INNOV_SIZE)
+
+        # ----- configuration
+        self._ix = float(imu_position[0])
+        self._iy = float(imu_position[1])
+        self._iz = float(imu_position[2])
+        # the port seen from the IMU
+        self._rx = float(port_position[0]) - self._ix
+        self._ry = float(port_position[1]) - self._iy
+        self._rz = float(port_position[2]) - self._iz
+        self._rho_g = fluid_density * _G
+        self._inv_rho_g = 1.0 / self._rho_g
+        self._p0 = float(surface_pressure_pa)
+        self._startup_us = int(startup_s * 1e6)
+        self._servo_hold_us = int(servo_hold_s * 1e6)
+        self._to_imu = timeouts_us[0]
+        self._to_mag = timeouts_us[1]
+        self._to_depth = timeouts_us[2]
+        self._to_fix = timeouts_us[3]
+        self._tilt_var_max = tilt_var_max
+        self._depth_var_max = depth_var_max
+        self._pos_var_max = position_var_max
+        att = self.att
+        period = _HOUSEKEEPING_STEPS * 0.01
+        self._tilt_ab = _variance_step(period, att.kp, tilt_psd, tilt_ref_psd)
+        self._tilt_ab_fast = _variance_step(period, att.kp_fast, tilt_psd, tilt_ref_psd)
+        self._tilt_ab_open = _variance_step(period, 0.0, tilt_psd, tilt_ref_psd)
+        self._head_ab = _variance_step(period, att.k_heading, heading_psd, heading_ref_psd)
+        self._head_ab_fast = _variance_step(period, att.k_heading_fast, heading_psd, heading_ref_psd)
+        self._head_ab_open = _variance_step(period, 0.0, heading_psd, heading_ref_psd)
+        self._head_floor = heading_var_floor
+        #: Magnetometer calibration: offset (3, gauss) then matrix (9, row-major).
+        self._mcal = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+
+        # ----- pending samples
+        self._pending = 0
+        self._m = [0.0, 0.0, 0.0]
+        self._t_m = 0
+        self._p = 0.0
+        self._t_p = 0
+        self._fix = [0.0, 0.0]
+        self._t_fix = 0
+
+        # ----- time keeping
+        self._wings = [0.0, 0.0, 0.0, 0.0]
+        self._wings_changed = False
+        self.hor.set_gain(glide_gain(0.0))
+        self._reset_times()
+
+    def _reset_times(self):
+        self._started = False
+        self._t_imu = 0
+        self._t_start = 0
+        self._t_servo = 0
+        self._servo_seen = False
+        self._t_mag_used = 0
+        self._t_mag_ok = 0
+        self._t_depth_ok = 0
+        self._t_fix_ok = 0
+        self._mag_seen = False
+        self._depth_seen = False
+        self._fix_seen = False
+        self._aligned = False
+        self._steps = 0
+        self._tilt_var = 0.01
+        self._head_var = 1.0
+        self._wings_changed = True
+        self._pending = 0
+
+    # ------------------------------------------------------------ settings
+    def zero_depth(self, pressure_pa, depth_m=0.0):
+        """Take ``pressure_pa`` as the pressure of the port at ``depth_m``
+        (m): sets the surface pressure (call at the surface before a dive)."""
+        self._p0 = pressure_pa - depth_m * self._rho_g
+
+    def set_mag_calibration(self, offset, matrix):
+        """Hard-iron ``offset`` (3, gauss) and soft-iron ``matrix`` (9,
+        row-major): calibrated = matrix (raw - offset)."""
+        if len(offset) != 3 or len(matrix) != 9:
+            raise ValueError("magnetometer calibration needs 3 offsets and 9 matrix terms")
+        c = self._mcal
+        for i in range(3):
+            c[i] = float(offset[i])
+        for i in range(9):
+            c[3 + i] = float(matrix[i])
+
+    def set_attitude(self, w, x, y, z):
+        """Force the attitude (e.g. a test's wrong start); restarts alignment."""
+        self.att.set_attitude(w, x, y, z)
+        self._t_start = self._t_imu
+        self._aligned = True
+
+    def reset(self):
+        """Forget everything but the configuration; the next samples restart it."""
+        self.att.set_attitude(1.0, 0.0, 0.0, 0.0)
+        self.att.set_bias(0.0, 0.0, 0.0)
+        self.vert.initialised = False
+        self.hor.initialised = False
+        self._reset_times()
+
+    # ------------------------------------------------------- sensor inputs
+    def wings(self, s1, s2, s3, s4):
+        """Commanded wing angles, rad. A changed command flags the servos as
+        moving (their current disturbs the magnetometer) and sets the
+        descent model's gain at the next housekeeping."""
+        w = self._wings
+        if s1 == w[0] and s2 == w[1] and s3 == w[2] and s4 == w[3]:
+            return
+        w[0] = s1
+        w[1] = s2
+        w[2] = s3
+        w[3] = s4
+        self._t_servo = self._t_imu
+        self._servo_seen = True
+        self._wings_changed = True
+
+    def mag(self, t_us, mx, my, mz):
+        """A raw magnetometer sample (gauss, body axes) measured at ``t_us``."""
+        m = self._m
+        m[0] = mx
+        m[1] = my
+        m[2] = mz
+        self._t_m = t_us
+        self._pending |= _PEND_MAG
+
+    def depth(self, t_us, pressure_pa):
+        """An absolute pressure (Pa) measured at ``t_us`` (mid-conversion)."""
+        self._p = pressure_pa
+        self._t_p = t_us
+        self._pending |= _PEND_DEPTH
+
+    def fix(self, t_us, north, east):
+        """A position fix (m, NED) measured at ``t_us`` (not when it arrived)."""
+        f = self._fix
+        f[0] = north
+        f[1] = east
+        self._t_fix = t_us
+        self._pending |= _PEND_FIX
+
+    def imu(self, t_us, gx, gy, gz, ax, ay, az):
+        """One IMU sample at ``t_us``: gyro (rad/s), specific force (m/s^2),
+        body axes. Fuses one pending sample, predicts, writes the outputs."""
+        if not self._started:
+            self._start(t_us, ax, ay, az)
+            return
+        n = ticks_diff(t_us, self._t_imu)
+        if n <= 0:
+            return
+        # one job at the state of the previous step, whose tick is _t_imu
+        self._steps += 1
+        p = self._pending
+        if p & _PEND_FIX:
+            self._pending = p & ~_PEND_FIX
+            self._fuse_fix()
+        elif p & _PEND_DEPTH:
+            self._pending = p & ~_PEND_DEPTH
+            self._fuse_depth()
+        elif self._steps >= _HOUSEKEEPING_STEPS:
+            self._steps = 0
+            self._housekeeping()
+        elif p:
+            self._pending = 0
+            self._fuse_mag()
+        self._t_imu = t_us
+        att = self.att
+        att.fast = ticks_diff(t_us, self._t_start) < self._startup_us
+        if n <= _MAX_GAP_US:
+            dt = n * 1e-6
+            att.predict(dt, gx, gy, gz, ax, ay, az)
+            R = att.R
+            vert = self.vert
+            vert.predict(dt, R[6] * ax + R[7] * ay + R[8] * az + _G)
+            self.hor.predict(t_us, dt, R[2], R[5], R[8], vert.x[1])
+        self._health(t_us)
+        self._outputs()
+
+    def check(self, t_us):
+        """Re-evaluate the health flags against the caller's clock ``t_us``
+        (notices a silent IMU); returns the health bits."""
+        self._health(t_us)
+        return self.status[_h.STATUS_HEALTH]
+
+    # ------------------------------------------------------------ internals
+    def _start(self, t_us, ax, ay, az):
+        self.att.level_from_accel(ax, ay, az)
+        self._t_imu = t_us
+        self._t_start = t_us
+        self._started = True
+        self._health(t_us)
+        self._outputs()
+
+    def _fuse_mag(self):
+        t = self._t_m
+        if self._servo_seen and ticks_diff(t, self._t_servo) < self._servo_hold_us:
+            self._t_mag_ok = t
+            self._mag_seen = True
+            return
+        m = self._m
+        c = self._mcal
+        x = m[0] - c[0]
+        y = m[1] - c[1]
+        z = m[2] - c[2]
+        mx = c[3] * x + c[4] * y + c[5] * z
+        my = c[6] * x + c[7] * y + c[8] * z
+        mz = c[9] * x + c[10] * y + c[11] * z
+        att = self.att
+        if not self._aligned:
+            att.align_heading(mx, my, mz)
+            self._aligned = True
+            self._t_mag_used = t
+            self._t_mag_ok = t
+            self._mag_seen = True
+            return
+        n = ticks_diff(t, self._t_mag_used)
+        if n <= 0:
+            return
+        if n > 100000:
+            n = 100000
+        result = att.heading(mx, my, mz, n * 1e-6)
+        self._t_mag_used = t
+        if result == HEADING_USED:
+            self._t_mag_ok = t
+            self._mag_seen = True
+        else:
+            self.status[_h.STATUS_MAG_REJECTS] += 1
+            if result == HEADING_REJECTED_INNOVATION:
+                self.innovation[_h.INNOV_MAG] = att.heading_ratio
+
+    def _fuse_depth(self):
+        vert = self.vert
+        R = self.att.R
+        z = (self._p - self._p0) * self._inv_rho_g
+        lever = R[6] * self._rx + R[7] * self._ry + R[8] * self._rz
+        t = self._t_p
+        if not vert.initialised:
+            vert.reset(z - lever, self._t_imu)
+            self._t_depth_ok = t
+            self._depth_seen = True
+            return
+        vert.propagate(self._t_imu)
+        lag = ticks_diff(self._t_imu, t) * 1e-6
+        used = vert.update(z, lever, lag)
+        self.innovation[_h.INNOV_DEPTH] = vert.ratio
+        if used:
+            self._t_depth_ok = t
+            self._depth_seen = True
+        else:
+            self.status[_h.STATUS_DEPTH_REJECTS] += 1
+
+    def _fuse_fix(self):
+        hor = self.hor
+        f = self._fix
+        t = self._t_fix
+        result = hor.update(self._t_imu, t, f[0], f[1])
+        self.innovation[_h.INNOV_FIX] = hor.ratio
+        if result == FIX_REJECTED or result == FIX_TOO_OLD:
+            self.status[_h.STATUS_FIX_REJECTS] += 1
+        else:
+            self._t_fix_ok = t
+            self._fix_seen = True
+
+    def _housekeeping(self):
+        """10 Hz: covariances to now, attitude variance model, quaternion
+        normalisation, descent gain, covariance outputs."""
+        t = self._t_imu
+        vert = self.vert
+        hor = self.hor
+        att = self.att
+        att.normalize()
+        if ticks_diff(t, vert.t_cov) > _STALE_US:  # else a depth update just did it
+            vert.propagate(t)
+        hor.propagate(t)
+        if self._wings_changed:
+            self._wings_changed = False
+            w = self._wings
+            hor.set_gain(glide_gain((w[0] + w[1] + w[2] + w[3]) * _QUARTER_DEG_PER_RAD))
+        # first-order model of the Mahony loops' errors over one period:
+        # var <- a var + b, from d var/dt = q + k^2 r - 2 k var
+        if att.accel_used:
+            ab = self._tilt_ab_fast if att.fast else self._tilt_ab
+        else:
+            ab = self._tilt_ab_open
+        tv = self._tilt_var * ab[0] + ab[1]
+        self._tilt_var = tv
+        if self._mag_seen and ticks_diff(t, self._t_mag_used) < self._to_mag:
+            ab = self._head_ab_fast if att.fast else self._head_ab
+        else:
+            ab = self._head_ab_open
+        hv = self._head_var * ab[0] + ab[1]
+        if hv < self._head_floor:
+            hv = self._head_floor
+        self._head_var = hv
+        c = self.cov
+        c[_h.COV_TILT] = tv
+        c[_h.COV_HEADING] = hv
+        P = vert.P
+        c[_h.COV_DEPTH] = P[0]
+        c[_h.COV_VZ] = P[3]
+        c[_h.COV_ACCEL_BIAS] = P[5]
+        P = hor.P
+        c[_h.COV_NORTH] = P[0]
+        c[_h.COV_EAST] = P[0]
+        c[_h.COV_VN] = P[2]
+        c[_h.COV_VE] = P[2]
+
+    def _health(self, t_us):
+        h = 0
+        if self._started and ticks_diff(t_us, self._t_imu) < self._to_imu:
+            h = _h.IMU_OK
+        if self._mag_seen and ticks_diff(t_us, self._t_mag_ok) < self._to_mag:
+            h |= _h.MAG_OK
+        if self._depth_seen and ticks_diff(t_us, self._t_depth_ok) < self._to_depth:
+            h |= _h.DEPTH_OK
+        if self._fix_seen and ticks_diff(t_us, self._t_fix_ok) < self._to_fix:
+            h |= _h.FIX_OK
+        att = self.att
+        if att.accel_used:
+            h |= _h.ACCEL_USED
+        if att.fast:
+            h |= _h.FAST_ALIGN
+        if self._servo_seen and ticks_diff(t_us, self._t_servo) < self._servo_hold_us:
+            h |= _h.SERVOS_MOVING
+        valid = 0
+        if h & _h.IMU_OK and not att.fast and self._tilt_var < self._tilt_var_max:
+            h |= _h.ATTITUDE_VALID
+            valid = 1
+        if self.vert.initialised and self.vert.P[0] < self._depth_var_max:
+            h |= _h.DEPTH_VALID
+        else:
+            valid = 0
+        if self.hor.initialised and self.hor.P[0] < self._pos_var_max:
+            h |= _h.POSITION_VALID
+        else:
+            valid = 0
+        s = self.status
+        s[_h.STATUS_HEALTH] = h
+        s[_h.STATUS_VALID] = valid
+
+    def _outputs(self):
+        att = self.att
+        q = att.q
+        o = self.q
+        o[0] = q[0]
+        o[1] = q[1]
+        o[2] = q[2]
+        o[3] = q[3]
+        r = att.rate
+        o = self.rates
+        o[0] = r[0]
+        o[1] = r[1]
+        o[2] = r[2]
+        R = att.R
+        e = self.euler
+        e[0] = math.atan2(R[7], R[8])
+        s = R[6]
+        if s > 1.0:
+            s = 1.0
+        elif s < -1.0:
+            s = -1.0
+        e[1] = -math.asin(s)
+        e[2] = math.atan2(R[3], R[0])
+        # centre of buoyancy = IMU - R r_imu; its rate, - R (omega x r_imu)
+        x = self.vert.x
+        o = self.nav
+        ix = self._ix
+        iy = self._iy
+        iz = self._iz
+        o[0] = x[0] - (R[6] * ix + R[7] * iy + R[8] * iz)
+        cx = r[1] * iz - r[2] * iy
+        cy = r[2] * ix - r[0] * iz
+        cz = r[0] * iy - r[1] * ix
+        o[1] = x[1] - (R[6] * cx + R[7] * cy + R[8] * cz)
+        x = self.hor.x
+        o[2] = x[0]
+        o[3] = x[1]
+        v = self.hor.v
+        o[4] = v[0]
+        o[5] = v[1]

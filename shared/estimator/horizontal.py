@@ -1,0 +1,221 @@
+"""Horizontal position and velocity: dead reckoning with the descent model,
+corrected by delayed position fixes.
+
+Between fixes the position integrates ``v = v_model + c``: ``v_model`` from
+the descent model (``descent_model``), ``c`` a slowly varying velocity bias
+(water current plus model error), per axis. The filter per axis has state
+``[p, c]``::
+
+    p_dot = v_model + c + n_p,     c_dot = n_c
+
+The two axes see the same noise and the same fixes, so they share one 2x2
+covariance ``[Ppp, Ppc, Pcc]``.
+
+A fix is measured at ``t_m`` and arrives later (the tracker's latency,
+0.2 s by default). A ring of the last ``history`` predicted positions (one
+per IMU step) gives the estimate at ``t_m``; the innovation there corrects
+``[p, c]`` at ``t_m``, and the correction is carried to now through the
+model (``dp_now = dp_m + dc * (now - t_m)``). The ring stores positions
+minus the sum of corrections applied so far, so older entries need no
+rewriting when a correction lands.
+"""
+
+from array import array
+
+from roboray.shared.estimator.ticks import ticks_diff
+
+#: ``update()`` results.
+FIX_USED = 0
+FIX_REJECTED = 1       # innovation beyond the gate
+FIX_TOO_OLD = 2        # measured before the oldest history entry
+FIX_RESET = 3          # first fix, or gate failed ``reacquire`` times: restarted on it
+
+
+class Horizontal:
+    """Dead-reckoning position filter with a delayed-fix history ring.
+
+    Parameters
+    ----------
+    fix_var:
+        Variance of one fix per axis, m^2.
+    pos_psd:
+        White velocity noise driving the position, (m/s)^2/Hz: the part of
+        the model error that averages out (feathering oscillations).
+    bias_psd:
+        Random walk of the velocity bias ``c``, (m/s)^2/s.
+    gate:
+        Innovation gate (2-D, standard deviations).
+    history:
+        Ring length in IMU steps; must cover the fix latency.
+    tau:
+        Lag of the descent model, s (``descent_model.TAU_S``).
+    """
+
+    def __init__(self, fix_var=4e-4, pos_psd=5e-5, bias_psd=5e-6, gate=4.0,
+                 history=64, tau=0.4, reacquire=4, pos_var0=100.0,
+                 bias_var0=0.0025):
+        if fix_var <= 0.0 or pos_psd <= 0.0 or bias_psd < 0.0 or gate <= 0.0:
+            raise ValueError("horizontal filter noise and gate must be positive")
+        if history < 4:
+            raise ValueError("history %r must be at least 4 steps" % history)
+        #: [north m, east m, current north m/s, current east m/s,
+        #:  model velocity north m/s, model velocity east m/s]
+        self.x = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        #: Velocity estimate [north, east], m/s.
+        self.v = [0.0, 0.0]
+        #: Shared covariance [Ppp, Ppc, Pcc].
+        self.P = [pos_var0, 0.0, bias_var0]
+        self.initialised = False
+        self.rejects = 0
+        self.ratio = 0.0
+        self.t_cov = 0
+        self._r = fix_var
+        self._qp = pos_psd
+        self._qc = bias_psd
+        self._g2 = gate * gate
+        self._reacquire = reacquire
+        self._inv_tau = 1.0 / tau if tau > 0.0 else 0.0
+        self._mk = 0.0
+        self._var0 = (pos_var0, bias_var0)
+        self._n = history
+        self._t = array("i", [0] * history)
+        self._pn = [0.0] * history
+        self._pe = [0.0] * history
+        self._head = 0
+        self._count = 0
+        #: Sum of the corrections applied so far (north, east), m.
+        self._s = [0.0, 0.0]
+
+    def set_gain(self, glide_gain):
+        """Glide gain K of the descent model for the current wings."""
+        self._mk = -glide_gain
+
+    def predict(self, t_us, dt, r02, r12, r22, w):
+        """Advance by ``dt`` s with the body z axis in NED ``(r02, r12, r22)``
+        and the descent speed ``w`` (m/s), and log the position at ``t_us``."""
+        x = self.x
+        if r22 < 0.17:  # past 80 deg of tilt the glide model means nothing
+            r22 = 0.17
+        g = w * self._mk / r22
+        a = dt * self._inv_tau
+        if a > 1.0 or a <= 0.0:
+            a = 1.0
+        mn = x[4]
+        me = x[5]
+        mn = mn + (g * r02 - mn) * a
+        me = me + (g * r12 - me) * a
+        x[4] = mn
+        x[5] = me
+        v = self.v
+        vn = mn + x[2]
+        ve = me + x[3]
+        v[0] = vn
+        v[1] = ve
+        n = x[0] + vn * dt
+        e = x[1] + ve * dt
+        x[0] = n
+        x[1] = e
+        k = self._head + 1
+        if k >= self._n:
+            k = 0
+        self._head = k
+        self._t[k] = t_us
+        s = self._s
+        self._pn[k] = n - s[0]
+        self._pe[k] = e - s[1]
+        if self._count < self._n:
+            self._count += 1
+
+    def propagate(self, t_us):
+        """Bring the covariance to tick ``t_us``."""
+        n = ticks_diff(t_us, self.t_cov)
+        if n <= 0:
+            return
+        self.t_cov = t_us
+        T = n * 1e-6
+        P = self.P
+        ppc = P[1]
+        tpcc = T * P[2]
+        P[0] = P[0] + T * (ppc + ppc + tpcc) + self._qp * T
+        P[1] = ppc + tpcc
+        P[2] = P[2] + self._qc * T
+
+    def _find(self, t_meas):
+        """Ring index of the newest entry at or before ``t_meas``, or -1."""
+        k = self._head
+        n = self._n
+        t = self._t
+        for _ in range(self._count):
+            if ticks_diff(t[k], t_meas) <= 0:
+                return k
+            k -= 1
+            if k < 0:
+                k = n - 1
+        return -1
+
+    def update(self, t_now, t_meas, zn, ze):
+        """Fuse a fix (north, east in m) measured at tick ``t_meas``; ``t_now``
+        is the tick of the last predict. Returns ``FIX_*``."""
+        k = self._find(t_meas)
+        if k < 0:
+            return FIX_TOO_OLD
+        x = self.x
+        s = self._s
+        if not self.initialised:
+            self._restart(k, zn, ze)
+            return FIX_RESET
+        self.propagate(t_now)
+        P = self.P
+        ppp = P[0]
+        ppc = P[1]
+        yn = zn - (self._pn[k] + s[0])
+        ye = ze - (self._pe[k] + s[1])
+        sv = ppp + self._r
+        d2 = yn * yn + ye * ye
+        g2s = self._g2 * sv
+        self.ratio = d2 / g2s
+        if d2 > g2s:
+            self.rejects += 1
+            if self.rejects >= self._reacquire:
+                self._restart(k, zn, ze)
+                return FIX_RESET
+            return FIX_REJECTED
+        self.rejects = 0
+        age = ticks_diff(t_now, self._t[k]) * 1e-6
+        inv = 1.0 / sv
+        kp = ppp * inv
+        kc = ppc * inv
+        dcn = kc * yn
+        dce = kc * ye
+        dpn = kp * yn + dcn * age
+        dpe = kp * ye + dce * age
+        x[0] = x[0] + dpn
+        x[1] = x[1] + dpe
+        x[2] = x[2] + dcn
+        x[3] = x[3] + dce
+        s[0] = s[0] + dpn
+        s[1] = s[1] + dpe
+        P[0] = ppp - kp * ppp
+        P[1] = ppc - kp * ppc
+        P[2] = P[2] - kc * ppc
+        return FIX_USED
+
+    def _restart(self, k, zn, ze):
+        """Put the position on the fix, carried to now by the dead-reckoned
+        displacement since ring entry ``k``; reset the covariance."""
+        x = self.x
+        s = self._s
+        dn = zn - (self._pn[k] + s[0])
+        de = ze - (self._pe[k] + s[1])
+        x[0] = x[0] + dn
+        x[1] = x[1] + de
+        s[0] = s[0] + dn
+        s[1] = s[1] + de
+        P = self.P
+        P[0] = self._r
+        P[1] = 0.0
+        if P[2] < self._var0[1]:
+            P[2] = self._var0[1]
+        self.t_cov = self._t[self._head]
+        self.initialised = True
+        self.rejects = 0

@@ -1,0 +1,390 @@
+"""The estimator's standard scenario and its bench runner.
+
+``standard_truth(seed)`` is the one place the scenario's truth comes from;
+``simulate_sensors`` turns it into sensor logs, ``schedule`` into the calls
+the firmware would make at 100 Hz, ``run`` replays them through the board
+estimator (the same replay code on CPython and on MicroPython), and
+``score`` compares the estimates with the truth.
+
+The standard scenario: the vehicle held still just under the surface for
+``HOLD_S`` (the estimator aligns and learns its gyro bias; the firmware
+launches only once the estimate is valid), then a 60 s feathering descent
+with wing motions. Sensors at their rates: IMU 208 Hz read at 100 Hz,
+magnetometer 80 Hz, pressure 25 Hz, fixes 1 Hz with 0.2 s latency. Scores
+count the 60 s after release only.
+
+To drive the scenario from the dynamics model, add a source to
+``TRUTH_SOURCES``: a function ``(seed) -> Truth`` on a uniform time grid
+of at least 200 Hz covering ``[0, HOLD_S + FLIGHT_S]``, the vehicle at rest
+until ``HOLD_S`` (``with_hold`` prepends such a segment to a flight that
+starts from rest), ``imu_position_body`` set, ``depth_sensor`` the depth of
+the pressure port at ``PORT_POSITION``, ``wings``/``wing_rates`` the servo
+angles actually reached, and a feathering descent of the thesis's kind
+after release.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+from scipy import signal
+
+from roboray.shared.estimator.ticks import TICKS_MAX, TICKS_PERIOD
+from roboray.sim.sensors import depth as depth_model
+from roboray.sim.sensors import imu as imu_model
+from roboray.sim.sensors import position_fix, trajectory
+from roboray.sim.sensors.sampling import interpolate, interpolate_quaternion
+from roboray.sim.truth import Truth, quaternion_to_matrix
+
+HOLD_S = 10.0
+FLIGHT_S = 60.0
+TICK_HZ = 100.0
+#: Tick of t = 0: three seconds before ``ticks_us`` wraps, so every run wraps.
+TICK0_US = TICKS_PERIOD - 3_000_000
+PROFILE = trajectory.DescentProfile(hold_s=HOLD_S, flight_s=FLIGHT_S)
+PORT_POSITION = PROFILE.port_position
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Sensor and water settings of a run (defaults: the standard scenario)."""
+
+    imu: imu_model.ImuSpec = field(default_factory=imu_model.ImuSpec)
+    depth: depth_model.MS5837Spec = field(default_factory=depth_model.MS5837Spec)
+    water: depth_model.Water = field(default_factory=depth_model.Water)
+    tracker: position_fix.TrackerSpec = field(default_factory=position_fix.TrackerSpec)
+    hold_s: float = HOLD_S
+
+
+STANDARD = Scenario()
+
+#: Where a truth can come from: name -> (seed -> Truth).
+TRUTH_SOURCES: dict[str, Callable[[int], Truth]] = {
+    "kinematic": lambda seed: trajectory.descent(seed, PROFILE),
+}
+
+
+def standard_truth(seed: int, source: str = "kinematic") -> Truth:
+    """The standard scenario's truth for ``seed``."""
+    if source not in TRUTH_SOURCES:
+        raise ValueError("truth source %r unknown; known: %s" % (source, ", ".join(sorted(TRUTH_SOURCES))))
+    return TRUTH_SOURCES[source](seed)
+
+
+def with_hold(flight: Truth, hold_s: float = HOLD_S) -> Truth:
+    """``flight`` (starting at rest) delayed by ``hold_s``, preceded by the
+    vehicle held still in its initial state."""
+    if np.linalg.norm(flight.velocity_ned[0]) > 1e-6 or np.linalg.norm(flight.omega_body[0]) > 1e-6:
+        raise ValueError("with_hold needs a flight that starts at rest")
+    dt = float(np.median(np.diff(flight.t)))
+    k = int(round(hold_s / dt))
+    t = np.concatenate((flight.t[0] + dt * np.arange(k), flight.t + k * dt))
+
+    def pad(a: np.ndarray, still: bool = False) -> np.ndarray:
+        first = np.zeros_like(a[:1]) if still else a[:1]
+        return np.concatenate((np.repeat(first, k, axis=0), a))
+
+    return Truth(
+        t=t, position_ned=pad(flight.position_ned), velocity_ned=pad(flight.velocity_ned, True),
+        quaternion=pad(flight.quaternion), omega_body=pad(flight.omega_body, True),
+        specific_force_imu=np.concatenate((np.repeat((flight.rotation()[0].T @ -np.array([0.0, 0.0, 9.80665]))[None], k, axis=0),
+                                           flight.specific_force_imu)),
+        depth_sensor=pad(flight.depth_sensor), wings=pad(flight.wings), wing_rates=pad(flight.wing_rates, True),
+        imu_position_body=flight.imu_position_body,
+        water_velocity_ned=None if flight.water_velocity_ned is None else pad(flight.water_velocity_ned),
+    )
+
+
+# ------------------------------------------------------------------ sensors
+@dataclass(frozen=True)
+class SensorLogs:
+    inertial: imu_model.InertialLog
+    mag: imu_model.MagLog
+    pressure: depth_model.PressureLog
+    fixes: position_fix.FixLog
+
+
+def simulate_sensors(truth: Truth, seed: int, scenario: Scenario = STANDARD) -> SensorLogs:
+    """Every sensor's log over ``truth``; each sensor has its own stream of ``seed``."""
+    temperature = depth_model.sensor_temperature(truth, scenario.water, scenario.depth.thermal_tau_s)
+    return SensorLogs(
+        inertial=imu_model.inertial(truth, scenario.imu, np.random.default_rng([seed, 1]), temperature),
+        mag=imu_model.magnetometer(truth, scenario.imu, np.random.default_rng([seed, 2])),
+        pressure=depth_model.pressure(truth, scenario.depth, scenario.water, np.random.default_rng([seed, 3])),
+        fixes=position_fix.fixes(truth, scenario.tracker, np.random.default_rng([seed, 4])),
+    )
+
+
+# ------------------------------------------------------------- estimator set-up
+def estimator_config(logs: SensorLogs, truth: Truth, scenario: Scenario = STANDARD) -> dict:
+    """JSON-able construction arguments of the board estimator for a run:
+    the parts' configuration, the magnetometer calibration, and the surface
+    pressure taken while the vehicle is held (port depth known)."""
+    earth = scenario.imu.earth
+    held = logs.pressure.t < scenario.hold_s
+    port_depth = float(truth.depth_sensor[0])
+    surface = float(np.mean(logs.pressure.pressure_pa[held]) - scenario.water.density * 9.80665 * port_depth)
+    return {
+        "attitude": {
+            "declination": float(np.radians(earth.declination_deg)),
+            "field_h": float(earth.intensity_gauss * np.cos(np.radians(earth.inclination_deg))),
+        },
+        "vertical": {},
+        "horizontal": {"fix_var": float(scenario.tracker.noise_m ** 2 + 1e-5)},
+        "estimator": {
+            "imu_position": [float(x) for x in truth.imu_position_body],
+            "port_position": [float(x) for x in PORT_POSITION],
+            "fluid_density": float(scenario.water.density),
+        },
+        "mag_offset": [float(x) for x in logs.mag.offset],
+        "mag_matrix": [float(x) for x in logs.mag.matrix.ravel()],
+        "surface_pressure_pa": surface,
+    }
+
+
+#: Replay code, run unchanged by CPython and by MicroPython: builds the board
+#: estimator from a config and feeds it the scheduled calls.
+REPLAY = '''
+from roboray.shared.estimator import Estimator
+from roboray.shared.estimator.attitude import Attitude
+from roboray.shared.estimator.horizontal import Horizontal
+from roboray.shared.estimator.vertical import Vertical
+from roboray.shared.estimator.descent_model import TAU_S
+
+
+def build(cfg):
+    hor = dict(cfg["horizontal"])
+    if "tau" not in hor:
+        hor["tau"] = TAU_S
+    est = Estimator(attitude=Attitude(**cfg["attitude"]), vertical=Vertical(**cfg["vertical"]),
+                    horizontal=Horizontal(**hor), **cfg["estimator"])
+    est.set_mag_calibration(cfg["mag_offset"], cfg["mag_matrix"])
+    est.zero_depth(cfg["surface_pressure_pa"], 0.0)
+    return est
+
+
+def feed(est, tick):
+    for ev in tick:
+        k = ev[0]
+        if k == "i":
+            est.imu(ev[1], ev[2], ev[3], ev[4], ev[5], ev[6], ev[7])
+        elif k == "m":
+            est.mag(ev[1], ev[2], ev[3], ev[4])
+        elif k == "p":
+            est.depth(ev[1], ev[2])
+        elif k == "f":
+            est.fix(ev[1], ev[2], ev[3])
+        elif k == "w":
+            est.wings(ev[1], ev[2], ev[3], ev[4])
+
+
+def snapshot(est):
+    return [list(est.q), list(est.euler), list(est.nav), list(est.rates), list(est.cov),
+            list(est.status), list(est.innovation)]
+
+
+def replay(est, ticks, every):
+    out = []
+    for k in range(len(ticks)):
+        feed(est, ticks[k])
+        if k % every == 0:
+            out.append(snapshot(est))
+    return out
+'''
+
+
+def replay_namespace() -> dict:
+    """``REPLAY`` executed on CPython: ``build``, ``feed``, ``snapshot``, ``replay``."""
+    namespace: dict = {}
+    exec(compile(REPLAY, "<replay>", "exec"), namespace)
+    return namespace
+
+
+# ----------------------------------------------------------------- schedule
+def to_ticks(t: np.ndarray | float) -> np.ndarray:
+    """Seconds since the run began -> wrapping microsecond ticks."""
+    return (TICK0_US + np.round(np.asarray(t) * 1e6).astype(np.int64)) & TICKS_MAX
+
+
+def schedule(truth: Truth, logs: SensorLogs, tick_hz: float = TICK_HZ) -> tuple[np.ndarray, list]:
+    """The firmware's calls, tick by tick: at each 100 Hz tick the newest
+    IMU sample (time-stamped with the tick), a new magnetometer sample if
+    any, a pressure sample whose 20 ms slot has ended, fixes that have
+    arrived (with their measurement time) and the wing command. Returns
+    (tick times in s, list of per-tick call lists)."""
+    t_ticks = np.arange(int(np.floor((truth.t[-1] - logs.inertial.t[0]) * tick_hz))) / tick_hz + logs.inertial.t[0]
+    ins = logs.inertial
+    i_imu = np.searchsorted(ins.t, t_ticks, side="right") - 1
+    i_mag = np.searchsorted(logs.mag.t, t_ticks, side="right") - 1
+    i_p = np.searchsorted(logs.pressure.t_ready, t_ticks, side="right") - 1
+    i_f = np.searchsorted(logs.fixes.t_arrival, t_ticks, side="right") - 1
+    wings = interpolate(truth.t, truth.wings, t_ticks)
+    ticks_us = to_ticks(t_ticks)
+    mag_us = to_ticks(logs.mag.t)
+    p_us = to_ticks(logs.pressure.t)
+    f_us = to_ticks(logs.fixes.t)
+    calls = []
+    last = [-1, -1, -1]
+    last_w = None
+    for k in range(len(t_ticks)):
+        tick = []
+        w = [round(float(x), 6) for x in wings[k]]
+        if w != last_w:
+            tick.append(["w"] + w)
+            last_w = w
+        if i_mag[k] > last[0]:
+            j = last[0] = int(i_mag[k])
+            tick.append(["m", int(mag_us[j])] + [float(x) for x in logs.mag.field[j]])
+        if i_p[k] > last[1]:
+            j = last[1] = int(i_p[k])
+            tick.append(["p", int(p_us[j]), float(logs.pressure.pressure_pa[j])])
+        while i_f[k] > last[2]:
+            j = last[2] = last[2] + 1
+            tick.append(["f", int(f_us[j]), float(logs.fixes.north[j]), float(logs.fixes.east[j])])
+        j = int(i_imu[k])
+        tick.append(["i", int(ticks_us[k])] + [float(x) for x in ins.gyro[j]] + [float(x) for x in ins.accel[j]])
+        calls.append(tick)
+    return t_ticks, calls
+
+
+# -------------------------------------------------------------------- runs
+@dataclass(frozen=True)
+class Estimates:
+    """Estimator outputs at the tick times ``t`` (s)."""
+
+    t: np.ndarray
+    q: np.ndarray          #: (N, 4)
+    euler: np.ndarray      #: (N, 3) rad
+    nav: np.ndarray        #: (N, 6) depth, vz, north, east, vn, ve
+    rates: np.ndarray      #: (N, 3)
+    cov: np.ndarray        #: (N, 9)
+    status: np.ndarray     #: (N, 5)
+    innovation: np.ndarray  #: (N, 3)
+
+    @classmethod
+    def from_snapshots(cls, t: np.ndarray, snaps: list) -> "Estimates":
+        cols = list(zip(*snaps))
+        return cls(t=np.asarray(t), q=np.array(cols[0]), euler=np.array(cols[1]), nav=np.array(cols[2]),
+                   rates=np.array(cols[3]), cov=np.array(cols[4]), status=np.array(cols[5]),
+                   innovation=np.array(cols[6]))
+
+
+def run(config: dict, calls: list, t_ticks: np.ndarray, every: int = 1) -> Estimates:
+    """Replay ``calls`` through the board estimator on CPython."""
+    ns = replay_namespace()
+    est = ns["build"](config)
+    snaps = ns["replay"](est, calls, every)
+    return Estimates.from_snapshots(t_ticks[::every][:len(snaps)], snaps)
+
+
+def _angle(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
+    d = np.abs(np.sum(q_est * q_true, axis=1)) / np.linalg.norm(q_est, axis=1)
+    return 2.0 * np.arccos(np.clip(d, -1.0, 1.0))
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def errors(truth: Truth, est: Estimates, since: float = HOLD_S) -> dict[str, np.ndarray]:
+    """Error time series (estimate - truth) at the ticks after ``since``."""
+    keep = est.t >= since
+    t = est.t[keep]
+    q_true = interpolate_quaternion(truth.t, truth.quaternion, t)
+    R_true = quaternion_to_matrix(q_true)
+    R_est = quaternion_to_matrix(est.q[keep])
+    tilt = np.arccos(np.clip(np.sum(R_true[:, :, 2] * R_est[:, :, 2], axis=1), -1.0, 1.0))
+    yaw_true = np.arctan2(R_true[:, 1, 0], R_true[:, 0, 0])
+    yaw_est = np.arctan2(R_est[:, 1, 0], R_est[:, 0, 0])
+    pos = interpolate(truth.t, truth.position_ned, t)
+    vel = interpolate(truth.t, truth.velocity_ned, t)
+    nav = est.nav[keep]
+    return {
+        "t": t,
+        "attitude": _angle(est.q[keep], q_true),
+        "tilt": tilt,
+        "heading": np.angle(np.exp(1j * (yaw_est - yaw_true))),
+        "depth": nav[:, 0] - pos[:, 2],
+        "vz": nav[:, 1] - vel[:, 2],
+        "north": nav[:, 2] - pos[:, 0],
+        "east": nav[:, 3] - pos[:, 1],
+        "vn": nav[:, 4] - vel[:, 0],
+        "ve": nav[:, 5] - vel[:, 1],
+    }
+
+
+def score(truth: Truth, est: Estimates, since: float = HOLD_S) -> dict[str, float]:
+    """RMS and worst errors after ``since`` (the release)."""
+    e = errors(truth, est, since)
+    horizontal = np.hypot(e["north"], e["east"])
+    keep = est.t >= since
+    return {
+        "attitude_rms_deg": float(np.degrees(_rms(e["attitude"]))),
+        "attitude_max_deg": float(np.degrees(np.max(e["attitude"]))),
+        "tilt_rms_deg": float(np.degrees(_rms(e["tilt"]))),
+        "heading_rms_deg": float(np.degrees(_rms(e["heading"]))),
+        "depth_rms_m": _rms(e["depth"]),
+        "depth_max_m": float(np.max(np.abs(e["depth"]))),
+        "vz_rms_mps": _rms(e["vz"]),
+        "horizontal_rms_m": _rms(horizontal),
+        "horizontal_max_m": float(np.max(horizontal)),
+        "horizontal_velocity_rms_mps": _rms(np.hypot(e["vn"], e["ve"])),
+        "valid_fraction": float(np.mean(est.status[keep, 1] == 1)),
+    }
+
+
+def run_seed(seed: int, source: str = "kinematic", scenario: Scenario = STANDARD) -> tuple[Truth, Estimates, dict]:
+    """Truth, estimates and scores of one seed of the standard scenario."""
+    truth = standard_truth(seed, source)
+    logs = simulate_sensors(truth, seed, scenario)
+    t_ticks, calls = schedule(truth, logs)
+    est = run(estimator_config(logs, truth, scenario), calls, t_ticks)
+    return truth, est, score(truth, est, scenario.hold_s)
+
+
+def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
+                            taus_s=(0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8), since: float = HOLD_S + 3.0) -> dict:
+    """Fit the descent model's table (``shared/estimator/descent_model.py``)
+    to truths by least squares: for each lag ``tau`` in ``taus_s``, the glide
+    gains K at ``folds_deg`` (linear in between) that best explain the
+    horizontal velocity as lag_tau(-K(fold) w (r02, r12) / r22) plus a
+    constant per truth and axis (the current); returns the best
+    ``{"fold_deg", "glide_gain", "tau_s", "residual_mps"}``."""
+    f = np.asarray(folds_deg, dtype=float)
+    best: dict = {}
+    for tau in taus_s:
+        blocks, rhs = [], []
+        n_const = 2 * len(truths)
+        for j, tr in enumerate(truths):
+            R = tr.rotation()
+            w = tr.velocity_ned[:, 2]
+            fold = np.degrees(tr.wings.mean(axis=1))
+            hats = np.stack([np.interp(fold, f, np.eye(len(f))[i]) for i in range(len(f))], axis=1)
+            dt = float(np.median(np.diff(tr.t)))
+            keep = tr.t >= since
+            for axis in (0, 1):
+                x = hats * (-w * R[:, axis, 2] / R[:, 2, 2])[:, None]
+                if tau > 0:
+                    a = np.exp(-dt / tau)
+                    x = signal.lfilter([1.0 - a], [1.0, -a], x, axis=0)
+                const = np.zeros((len(x), n_const))
+                const[:, 2 * j + axis] = 1.0
+                blocks.append(np.hstack([x, const])[keep])
+                rhs.append(tr.velocity_ned[keep, axis])
+        A = np.concatenate(blocks)
+        b = np.concatenate(rhs)
+        sol, *_ = np.linalg.lstsq(A, b, rcond=None)
+        residual = float(np.sqrt(np.mean((A @ sol - b) ** 2)))
+        if not best or residual < best["residual_mps"]:
+            best = {"fold_deg": [float(x) for x in f], "glide_gain": [float(x) for x in sol[:len(f)]],
+                    "tau_s": float(tau), "residual_mps": residual}
+    return best
+
+
+__all__ = [
+    "HOLD_S", "FLIGHT_S", "STANDARD", "Scenario", "SensorLogs", "Estimates", "TRUTH_SOURCES",
+    "standard_truth", "with_hold", "simulate_sensors", "estimator_config", "schedule", "run",
+    "errors", "score", "run_seed", "calibrate_descent_model", "replay_namespace", "REPLAY", "replace",
+]
