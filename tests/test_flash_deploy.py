@@ -261,6 +261,7 @@ def test_a_crash_after_the_start_up_line_fails_the_deploy(board):
 
 
 def test_a_missing_application_is_reported_not_hidden(board):
+    (board.src / "firmware" / "app.py").unlink(missing_ok=True)
     with Board(board.device) as bd:
         with pytest.raises(AppDidNotStart, match="ImportError: no module named 'roboray.firmware.app'"):
             deploy(bd, build(board.out, src_root=board.src), start_timeout_s=10)
