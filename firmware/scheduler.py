@@ -53,9 +53,12 @@ class Scheduler:
         Optional callable; the watchdog is fed only while it returns True.
     reset_cause:
         ``machine.reset_cause()`` at boot, kept for the reports.
+    collect:
+        The collector to run once a slot (``gc.collect``).
     """
 
-    def __init__(self, clock, period_ms=10, wdt=None, overrun_limit=25, health=None, reset_cause=0):
+    def __init__(self, clock, period_ms=10, wdt=None, overrun_limit=25, health=None, reset_cause=0,
+                 collect=None):
         if period_ms < 1:
             raise ValueError("scheduler period_ms must be >= 1, got %r" % (period_ms,))
         self._clock = clock
@@ -64,6 +67,7 @@ class Scheduler:
         self.overrun_limit = overrun_limit
         self.health = health
         self.reset_cause = reset_cause
+        self._collect = collect if collect is not None else gc.collect
         self.names = []
         self._fns = []
         self._every = array("H", [0] * _MAX_TASKS)
@@ -140,7 +144,7 @@ class Scheduler:
             if dt > self.task_max_us[i]:
                 self.task_max_us[i] = dt
         t0 = clock.ticks_us()
-        gc.collect()
+        self._collect()
         self.gc_us = clock.ticks_diff(clock.ticks_us(), t0)
         if self.gc_us > self.gc_max_us:
             self.gc_max_us = self.gc_us

@@ -1,0 +1,138 @@
+"""The fixed-rate loop on the virtual clock: rates, overruns, watchdog, gc."""
+
+from __future__ import annotations
+
+import pytest
+
+from roboray.sim import twin
+
+pytestmark = pytest.mark.micropython
+
+
+@pytest.fixture(scope="module")
+def board():
+    mp = twin.interpreter()
+    yield mp
+    mp.close()
+
+
+@pytest.fixture
+def mp(board):
+    twin.reset(board)
+    board.exec(
+        "import gc, machine, time\n"
+        "from array import array\n"
+        "from roboray.sim.twin.board import vclock\n"
+        "from roboray.firmware.scheduler import Scheduler\n"
+        "log = array('l', [0] * 4000)\n"
+        "n = array('l', [0])\n"
+        "def stamp():\n"
+        "    log[n[0]] = time.ticks_ms()\n"
+        "    n[0] += 1\n"
+        "def stamps():\n"
+        "    return list(log[:n[0]])\n"
+        "def nothing():\n"
+        "    pass\n"
+        "def busy(us):\n"
+        "    def work():\n"
+        "        vclock.advance(us)\n"
+        "    return work\n"
+    )
+    return board
+
+
+def test_tasks_run_at_their_rates_and_phases(mp):
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "s.add('fast', nothing, 10)\ns.add('depth', stamp, 20, phase=1)\ns.add('slow', nothing, 100, phase=3)\n"
+            "s.run(100)")
+    assert mp.eval("[s.runs[0], s.runs[1], s.runs[2]]") == [100, 50, 10]
+    assert mp.eval("stamps()[:4]") == [10, 30, 50, 70]   # every 20 ms, one slot in
+    assert mp.eval("vclock.elapsed_us()") == 990000       # 100 slots, sleeping between them
+    assert mp.eval("[s.overruns, s.skipped, s.cycles]") == [0, 0, 100]
+
+
+def test_periods_must_fit_the_slot(mp):
+    mp.exec("s = Scheduler(vclock, 10)")
+    with pytest.raises(Exception, match="period 15 ms is not a multiple of the 10 ms slot"):
+        mp.exec("s.add('x', nothing, 15)")
+    with pytest.raises(Exception, match="phase 2 outside 0..1"):
+        mp.exec("s.add('x', nothing, 20, phase=2)")
+
+
+def test_an_overrun_is_counted_and_the_grid_is_kept(mp):
+    # slot 5 takes 35 ms: slots 6, 7, 8 are lost; 9 runs at once, late
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "def sometimes():\n"
+            "    if s.slot == 5:\n"
+            "        vclock.advance(35000)\n"
+            "s.add('work', sometimes, 10)\ns.add('every20', stamp, 20)\n"
+            "s.run(20)")
+    assert mp.eval("[s.overruns, s.skipped]") == [1, 2]
+    assert mp.eval("s.max_loop_us") == 35000
+    assert mp.eval("s.slot") == 22   # 20 slots run, 2 (60-80 ms) jumped over
+    # slot 8 (80 ms) runs at once, 5 ms late; then the 20 ms task is back on its grid
+    assert mp.eval("stamps()") == [0, 20, 40, 85] + list(range(100, 220, 20))
+    assert mp.eval("s.consecutive_overruns") == 0
+
+
+def test_watchdog_is_fed_only_while_the_loop_is_healthy(mp):
+    mp.exec("w = machine.WDT(timeout=100)\nhealthy = [True]\n"
+            "s = Scheduler(vclock, 10, wdt=w, overrun_limit=3, health=lambda: healthy[0])\n"
+            "s.add('x', nothing, 10)\ns.run(50)")
+    assert mp.eval("s.wdt_feeds") == 50
+    assert mp.eval("machine.twin.wdt_expired()") is False
+    mp.exec("healthy[0] = False\ns.run(20)")    # the failsafes veto: 200 ms unfed
+    assert mp.eval("s.wdt_withheld") == 20
+    assert mp.eval("machine.twin.wdt_expired()") is True
+
+
+def test_a_limping_loop_starves_the_watchdog(mp):
+    mp.exec("w = machine.WDT(timeout=1000)\n"
+            "s = Scheduler(vclock, 10, wdt=w, overrun_limit=3)\n"
+            "s.add('slow', busy(12000), 10)\ns.run(10)")
+    assert mp.eval("s.overruns") == 10
+    assert mp.eval("s.wdt_feeds") == 2   # the first two overruns are tolerated
+    assert mp.eval("s.wdt_withheld") == 8
+
+
+def test_a_failing_task_is_counted_reported_and_the_loop_goes_on(mp):
+    mp.exec("w = machine.WDT(timeout=1000)\n"
+            "def bad():\n    raise ValueError('boom')\n"
+            "s = Scheduler(vclock, 10, wdt=w)\ns.add('bad', bad, 20)\ns.add('ok', nothing, 10)")
+    out = mp.exec("s.run(10)")
+    assert out.count("task bad failed: ValueError('boom',)") == 1  # printed once, not every time
+    assert mp.eval("[s.task_errors[0], s.runs[1]]") == [5, 10]
+    assert mp.eval("s.wdt_withheld") == 5     # no feed in a slot where a task raised
+
+
+def test_one_collection_each_slot_after_its_tasks(mp):
+    # (The WebAssembly port cannot free memory from inside a running program,
+    # so the order of events is what is checked here, not the heap.)
+    mp.exec("events = []\n"
+            "s = Scheduler(vclock, 10, collect=lambda: events.append('gc'))\n"
+            "s.add('a', lambda: events.append('a'), 10)\ns.add('b', lambda: events.append('b'), 20)\n"
+            "s.run(4)")
+    assert mp.eval("events") == ["a", "b", "gc", "a", "gc", "a", "b", "gc", "a", "gc"]
+    mp.exec("s = Scheduler(vclock, 10)")
+    assert mp.eval("s._collect is gc.collect") is True
+
+
+def test_a_slot_of_allocation_free_tasks_allocates_nothing(mp):
+    mp.exec("s = Scheduler(vclock, 10)\ns.add('a', nothing, 10)\ns.add('b', stamp, 20)")
+    assert mp.alloc_bytes("s.run_slot(); s.slot += 1") == 0
+
+
+def test_ticks_wrapping_around_does_not_disturb_the_loop(mp):
+    mp.exec("vclock.reset(start_us=(1 << 30) - 25000)\n"
+            "s = Scheduler(vclock, 10)\ns.add('x', nothing, 10)\ns.run(10)")
+    assert mp.eval("[s.overruns, s.skipped, s.max_loop_us]") == [0, 0, 0]
+    assert mp.eval("vclock.elapsed_us()") == 90000
+
+
+def test_report_names_every_task(mp):
+    mp.exec("s = Scheduler(vclock, 10, reset_cause=machine.WDT_RESET)\n"
+            "s.add('imu', nothing, 10)\ns.add('depth', nothing, 20)\ns.run(4)")
+    text = mp.eval("s.report()")
+    assert text.splitlines()[0].startswith("loop 100 Hz: 4 cycles, 0 overruns")
+    assert "imu        every  10 ms: 4 runs" in text and "depth      every  20 ms: 2 runs" in text
+    assert mp.eval("s.reset_cause") == 3

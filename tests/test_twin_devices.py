@@ -1,0 +1,182 @@
+"""The emulated sensors at register level: what a driver meets on the bus."""
+
+from __future__ import annotations
+
+import pytest
+
+from roboray.sim import twin
+from roboray.sim.twin.board import ms5837_device
+
+pytestmark = pytest.mark.micropython
+
+C = [0] + list(ms5837_device.DATASHEET_PROM)
+
+
+@pytest.fixture(scope="module")
+def board():
+    mp = twin.interpreter()
+    yield mp
+    mp.close()
+
+
+@pytest.fixture
+def mp(board):
+    twin.reset(board)
+    board.exec(
+        "import machine, time\n"
+        "from roboray.sim.twin.board import vclock, i2c_device\n"
+        "from roboray.sim.twin.board.ms5837_device import MS5837Device, crc4\n"
+        "from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice\n"
+        "from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice\n"
+        "i2c = machine.I2C(0, sda=machine.Pin(4), scl=machine.Pin(5))\n"
+        "def adc():\n"
+        "    b = i2c.readfrom_mem(0x76, 0x00, 3)\n"
+        "    return (b[0] << 16) | (b[1] << 8) | b[2]\n"
+        "def reg(addr, r, n=1):\n"
+        "    return list(i2c.readfrom_mem(addr, r, n))\n"
+        "def put(addr, r, v):\n"
+        "    i2c.writeto_mem(addr, r, bytes([v]))\n"
+    )
+    return board
+
+
+# ------------------------------------------------------------------ MS5837
+def test_ms5837_prom_carries_the_datasheet_coefficients_and_a_valid_crc(mp):
+    mp.exec("d = machine.twin.attach(0, MS5837Device())\n"
+            "words = [int.from_bytes(i2c.readfrom_mem(0x76, 0xA0 + 2 * i, 2), 'big') for i in range(7)] + [0]")
+    words = mp.eval("words")
+    assert words[1:7] == C[1:]
+    assert words[0] >> 12 == ms5837_device.crc4(words)
+    mp.exec("d.corrupt_prom()\nw1 = int.from_bytes(i2c.readfrom_mem(0x76, 0xA2, 2), 'big')")
+    assert mp.eval("w1") == C[1] ^ 1
+
+
+@pytest.mark.parametrize("cmd, us", [(0x40, 600), (0x44, 2280), (0x48, 9040), (0x4A, 18080), (0x5A, 18080)])
+def test_ms5837_conversion_takes_its_datasheet_time(mp, cmd, us):
+    mp.exec("d = machine.twin.attach(0, MS5837Device())\ni2c.writeto(0x76, bytes([%d]))\n"
+            "time.sleep_us(%d)\nearly = adc()" % (cmd, us - 1))
+    assert mp.eval("early") == 0                     # read during the conversion: 0
+    # (that read spoiled the conversion, as the datasheet warns: let it end)
+    mp.exec("time.sleep_us(1)\nspoiled = adc()\n"
+            "i2c.writeto(0x76, bytes([%d]))\ntime.sleep_us(%d)\nv = adc()" % (cmd, us))
+    want = mp.eval("d.d1" if cmd < 0x50 else "d.d2")
+    assert mp.eval("spoiled") not in (0, want)
+    assert mp.eval("v") == want
+    assert mp.eval("adc()") == 0                     # a second read of one result: 0
+
+
+def test_ms5837_read_during_a_conversion_spoils_its_result(mp):
+    mp.exec("d = machine.twin.attach(0, MS5837Device())\ni2c.writeto(0x76, b'\\x4a')\n"
+            "time.sleep_ms(5)\nz = adc()\ntime.sleep_ms(20)\nv = adc()")
+    assert mp.eval("z") == 0
+    assert mp.eval("v != d.d1 and v != 0") is True
+
+
+def test_ms5837_reset_reloads_the_prom_without_answering_for_2_8_ms(mp):
+    mp.exec("machine.twin.attach(0, MS5837Device())\ni2c.writeto(0x76, b'\\x1e')")
+    assert mp.eval("i2c.scan()") == []
+    mp.exec("time.sleep_us(2800)")
+    assert mp.eval("i2c.scan()") == [0x76]
+
+
+def test_ms5837_inverse_gives_back_pressure_and_temperature_over_its_range(mp):
+    # Whatever the twin sets, the datasheet formula on D1/D2 returns it to the
+    # nearest code: 0.1 mbar and 0.01 C, across -20..85 C and 0..30 bar.
+    cases = [(p, t) for t in (-20.0, -15.5, 0.0, 12.34, 19.99, 20.0, 40.0, 85.0)
+             for p in (0.0, 101325.0, 250000.0, 1000000.0, 2999000.0)]
+    mp.exec("d = MS5837Device()\nres = []\n"
+            "for p, t in %r:\n    d.set(p, t)\n    res.append((d.d1, d.d2))" % (cases,))
+    for (p, t), (d1, d2) in zip(cases, mp.eval("res")):
+        got_p, got_t = ms5837_device.compensate(C, d1, d2)
+        assert abs(got_p - p / 10) <= 0.5 + 1e-9, (p, t)
+        assert abs(got_t - t * 100) <= 1, (p, t)
+
+
+def test_ms5837_stick_freezes_conversions(mp):
+    mp.exec("d = machine.twin.attach(0, MS5837Device())\nd.set(200000.0, 15.0)\nd1 = d.d1\n"
+            "d.set_fault(i2c_device.FAULT_STICK)\nd.set(300000.0, 15.0)\n"
+            "i2c.writeto(0x76, b'\\x4a')\ntime.sleep_ms(19)\nv = adc()")
+    assert mp.eval("v == d1 and d.d1 != d1") is True
+
+
+# ---------------------------------------------------------------- LSM6DSOX
+def test_lsm6dsox_powers_up_off_and_samples_at_its_odr(mp):
+    mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nd.set_accel(0.0, 0.0, 9.80665)\ntime.sleep_ms(50)")
+    assert mp.eval("reg(0x6A, 0x0F)") == [0x6C]
+    assert mp.eval("reg(0x6A, 0x1E, 16)") == [0] * 16   # ODR 0: nothing, ever
+    mp.exec("put(0x6A, 0x10, 0x58)\ntime.sleep_us(4807)")
+    assert mp.eval("reg(0x6A, 0x1E)") == [0]
+    mp.exec("time.sleep_us(1)")
+    assert mp.eval("reg(0x6A, 0x1E)") == [0x05]         # XLDA and TDA at 1/208 s
+    az = mp.eval("reg(0x6A, 0x2C, 2)")
+    assert az[0] | az[1] << 8 == round(1000 / 0.122)     # 1 g at 0.122 mg/LSB
+    assert mp.eval("reg(0x6A, 0x1E)") == [0x04]         # reading the accel cleared XLDA
+
+
+def test_lsm6dsox_auto_increment_follows_if_inc(mp):
+    mp.exec("machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x12, 0x00)")
+    assert mp.eval("reg(0x6A, 0x0F, 3)") == [0x6C, 0x6C, 0x6C]
+    mp.exec("put(0x6A, 0x12, 0x04)")
+    assert mp.eval("reg(0x6A, 0x0F, 2)") == [0x6C, 0x00]
+
+
+def test_lsm6dsox_sw_reset_restores_defaults_and_read_only_registers_stay(mp):
+    mp.exec("machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x10, 0x58)\nput(0x6A, 0x0F, 0x00)\n"
+            "put(0x6A, 0x12, 0x45)")
+    assert mp.eval("reg(0x6A, 0x0F)") == [0x6C]
+    assert mp.eval("reg(0x6A, 0x10, 3)") == [0x00, 0x00, 0x04]
+
+
+def test_lsm6dsox_full_scale_sets_the_counts(mp):
+    mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nd.set_accel(9.80665, 0.0, 0.0)\n"
+            "put(0x6A, 0x10, 0x50)\ntime.sleep_ms(5)\na2 = reg(0x6A, 0x28, 2)\n"
+            "put(0x6A, 0x10, 0x5C)\ntime.sleep_ms(5)\na8 = reg(0x6A, 0x28, 2)")
+    assert mp.eval("a2[0] | a2[1] << 8") == round(1000 / 0.061)
+    assert mp.eval("a8[0] | a8[1] << 8") == round(1000 / 0.244)
+
+
+# ------------------------------------------------------------------ LIS3MDL
+def test_lis3mdl_increments_only_with_bit_7_of_the_subaddress(mp):
+    mp.exec("machine.twin.attach(0, LIS3MDLDevice())")
+    assert mp.eval("reg(0x1C, 0x20, 3)") == [0x10, 0x10, 0x10]
+    assert mp.eval("reg(0x1C, 0x20 | 0x80, 3)") == [0x10, 0x00, 0x03]
+
+
+def test_lis3mdl_rates_modes_and_byte_order(mp):
+    mp.exec("d = machine.twin.attach(0, LIS3MDLDevice())\nd.set_field(0.5, 0.0, 0.0)\n"
+            "put(0x1C, 0x20, 0x1C)\nput(0x1C, 0x22, 0x00)\ntime.sleep_us(12499)")  # 80 Hz, continuous
+    assert mp.eval("reg(0x1C, 0x27)") == [0x00]
+    mp.exec("time.sleep_us(1)")
+    assert mp.eval("reg(0x1C, 0x27)") == [0x0F]
+    assert mp.eval("reg(0x1C, 0x28 | 0x80, 2)") == [3421 & 0xFF, 3421 >> 8]   # 0.5 G at 6842 LSB/G
+    mp.exec("put(0x1C, 0x23, 0x02)\ntime.sleep_us(12500)")                     # BLE: big-endian
+    assert mp.eval("reg(0x1C, 0x28 | 0x80, 2)") == [3421 >> 8, 3421 & 0xFF]
+    mp.exec("time.sleep_us(25000)")                                          # two samples, none read
+    assert mp.eval("reg(0x1C, 0x27)") == [0xFF]                              # overrun flagged
+    mp.exec("put(0x1C, 0x22, 0x01)\ntime.sleep_us(12500)")                   # single conversion
+    assert mp.eval("reg(0x1C, 0x22)") == [0x03]                              # then idle
+
+
+def test_lis3mdl_soft_reset(mp):
+    mp.exec("machine.twin.attach(0, LIS3MDLDevice())\nput(0x1C, 0x20, 0xE2)\nput(0x1C, 0x21, 0x04)")
+    assert mp.eval("reg(0x1C, 0x20 | 0x80, 3)") == [0x10, 0x00, 0x03]
+
+
+# ------------------------------------------------------------------- faults
+def test_faults_nack_garbage_and_recovery(mp):
+    mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nd.set_fault(i2c_device.FAULT_NACK)")
+    assert mp.eval("i2c.scan()") == []
+    mp.exec("d.set_fault(i2c_device.FAULT_GARBAGE)\ng1 = reg(0x6A, 0x0F, 8)\ng2 = reg(0x6A, 0x0F, 8)")
+    assert mp.eval("g1 != g2 and len(set(g1)) > 4") is True
+    mp.exec("d.set_fault(i2c_device.FAULT_NONE)")
+    assert mp.eval("reg(0x6A, 0x0F)") == [0x6C]
+    raises_unknown = "d.set_fault(9)"
+    with pytest.raises(Exception, match="unknown fault"):
+        mp.exec(raises_unknown)
+
+
+def test_reading_an_emulated_device_allocates_nothing(mp):
+    mp.exec("machine.twin.attach(0, LSM6DSOXDevice())\nmachine.twin.attach(0, MS5837Device())\n"
+            "put(0x6A, 0x10, 0x58)\nbuf = bytearray(16)\nw = bytearray(2)\ncmd = bytearray(b'\\x4a')")
+    assert mp.alloc_bytes("time.sleep_ms(5); i2c.readfrom_mem_into(0x6A, 0x1E, buf)") == 0
+    assert mp.alloc_bytes("i2c.writeto(0x76, cmd); i2c.readfrom_mem_into(0x76, 0xA2, w)") == 0
