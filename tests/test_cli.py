@@ -60,8 +60,9 @@ def test_bench_micropython_reports_figures():
     proc = run("roboray.sim.cli", "bench", "micropython", "--iterations", "20000", "--json")
     assert proc.returncode == 0, proc.stderr
     figures = json.loads(proc.stdout)
-    assert figures["us_per_mul_iteration"] > figures["us_per_empty_iteration"] > 0
+    assert figures["us_per_mul_iteration"] > 0 and figures["us_per_empty_iteration"] > 0
     assert figures["heap_bytes_per_mul"] == 16.0  # one boxed float a multiply, as on an RP2350
+    assert figures["rp2350_slowdown"] == pytest.approx(7.2 / figures["us_per_mul_iteration"])
 
 
 def test_failure_is_one_line_exit_one(tmp_path):
