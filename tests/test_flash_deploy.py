@@ -26,7 +26,7 @@ from roboray.tools.flash.board import TMP_SUFFIX, Board
 from roboray.tools.flash.build import build
 from roboray.tools.flash.deploy import deploy, status
 from roboray.tools.flash.errors import AppDidNotStart, NotEnoughSpace, ShadowedModule
-from roboray.tools.micropython.virtual_board import VirtualBoard
+from roboray.tools.micropython.virtual_board import VirtualBoard, twin_builtins
 
 pytestmark = pytest.mark.micropython
 
@@ -84,7 +84,7 @@ def deployed(committed_src, tmp_path_factory) -> dict:
     fs.mkdir()
     (fs / "main.py").write_text("import time\nwhile True:\n    time.sleep_ms(10)\n")
     b = build(work / "out", src_root=committed_src)
-    with VirtualBoard(fs_dir=fs) as vb:
+    with VirtualBoard(fs_dir=fs, modules=twin_builtins()) as vb:
         with Board(vb.device) as board:
             report = deploy(board, b, reset=False)
         imported = board_exec(vb.device, "import %s\nprint('ok')" % ", ".join(modules_of(b)))
@@ -94,11 +94,14 @@ def deployed(committed_src, tmp_path_factory) -> dict:
 
 @pytest.fixture
 def board(deployed, tmp_path):
-    """A fresh virtual board already holding the deployment, and its own source tree."""
+    """A fresh virtual board already holding the deployment, and its own source tree.
+
+    A bare Pico 2: the twin's ``machine`` (when it exists), nothing on the buses.
+    """
     shutil.copytree(deployed["fs"], tmp_path / "fs")
     shutil.copytree(deployed["src"], tmp_path / "src")
     shutil.copytree(deployed["out"], tmp_path / "out")
-    with VirtualBoard(fs_dir=tmp_path / "fs") as vb:
+    with VirtualBoard(fs_dir=tmp_path / "fs", modules=twin_builtins()) as vb:
         vb.src = tmp_path / "src"
         vb.out = tmp_path / "out"
         yield vb
@@ -267,18 +270,15 @@ def test_a_missing_application_is_reported_not_hidden(board):
             deploy(bd, build(board.out, src_root=board.src), start_timeout_s=10)
 
 
-def test_the_firmware_starts_with_its_clear_error_without_hardware(committed_src, tmp_path):
-    # The real application on a bare Pico 2: the twin's machine, nothing on the buses.
-    from roboray.tools.micropython.virtual_board import twin_builtins
-
-    if not (committed_src / "firmware" / "app.py").is_file() or not twin_builtins():
+def test_the_firmware_starts_with_its_clear_error_without_hardware(board):
+    # The real application (committed) on a bare Pico 2: nothing answers on its buses.
+    if not (board.src / "firmware" / "app.py").is_file() or not twin_builtins():
         pytest.skip("firmware/app.py or sim/twin's machine.py (other issues) is not committed yet")
-    b = build(tmp_path / "out", src_root=committed_src)
-    with VirtualBoard(fs_dir=tmp_path / "fs", modules=twin_builtins()) as vb:
-        with Board(vb.device) as bd:
-            report = deploy(bd, b, start_timeout_s=20)
+    b = build(board.out, src_root=board.src)
+    with Board(board.device) as bd:
+        report = deploy(bd, b, start_timeout_s=20)
     lines = report["app_output"].splitlines()
-    assert report["started"] is True and lines[0] == b.banner
+    assert report["files_copied"] == 0 and report["started"] is True and lines[0] == b.banner
     assert "Traceback" not in report["app_output"] and len(lines) >= 2  # its own error, not a crash
 
 
