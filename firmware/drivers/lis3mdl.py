@@ -60,11 +60,6 @@ MAG_SCALE = 1.0 / 6842.0
 TEMP_SCALE = 1.0 / 8.0
 
 
-def _s16(buf, i):
-    v = buf[i] | (buf[i + 1] << 8)
-    return v - ((v & 0x8000) << 1)
-
-
 class LIS3MDL:
     """LIS3MDL on ``i2c`` at ``address`` (0x1C, or 0x1E with SDO high).
 
@@ -132,7 +127,8 @@ class LIS3MDL:
             return False
         b = self._buf
         status = b[0]
-        t = _s16(b, 7)
+        t = b[7] | (b[8] << 8)
+        t -= (t & 0x8000) << 1
         if t < _TEMP_MIN or t > _TEMP_MAX:
             health.bad(ERR_RANGE)
             self._recover()
@@ -145,10 +141,18 @@ class LIS3MDL:
             self.overruns += 1
         raw = self.raw
         m = self.mag_gauss
-        for i in range(3):
-            v = _s16(b, 1 + 2 * i)
-            raw[1 + i] = v
-            m[i] = v * MAG_SCALE
+        v = b[1] | (b[2] << 8)
+        v -= (v & 0x8000) << 1
+        raw[1] = v
+        m[0] = v * MAG_SCALE
+        v = b[3] | (b[4] << 8)
+        v -= (v & 0x8000) << 1
+        raw[2] = v
+        m[1] = v * MAG_SCALE
+        v = b[5] | (b[6] << 8)
+        v -= (v & 0x8000) << 1
+        raw[3] = v
+        m[2] = v * MAG_SCALE
         if t != raw[0]:
             raw[0] = t
             self.temp_c[0] = 25.0 + t * TEMP_SCALE

@@ -57,11 +57,6 @@ GYRO_SCALE = 17.50e-3 * 3.141592653589793 / 180.0
 TEMP_SCALE = 1.0 / 256.0
 
 
-def _s16(buf, i):
-    v = buf[i] | (buf[i + 1] << 8)
-    return v - ((v & 0x8000) << 1)
-
-
 class LSM6DSOX:
     """LSM6DSOX on ``i2c`` at ``address`` (0x6A, or 0x6B with SDO high).
 
@@ -128,7 +123,8 @@ class LSM6DSOX:
             return False
         b = self._buf
         status = b[0]
-        t = _s16(b, 2)
+        t = b[2] | (b[3] << 8)
+        t -= (t & 0x8000) << 1
         if status & _RESERVED or t < _TEMP_MIN or t > _TEMP_MAX:
             health.bad(ERR_RANGE)
             self._recover()
@@ -137,10 +133,22 @@ class LSM6DSOX:
             health.bad(ERR_STALE)
             self._recover()
             return False
+        # Straight-line decoding: a loop or a helper call per value costs
+        # more than the arithmetic on MicroPython.
         raw = self.raw
         raw[0] = t
-        for i in range(6):
-            raw[1 + i] = _s16(b, 4 + 2 * i)
+        v = b[4] | (b[5] << 8)
+        raw[1] = v - ((v & 0x8000) << 1)
+        v = b[6] | (b[7] << 8)
+        raw[2] = v - ((v & 0x8000) << 1)
+        v = b[8] | (b[9] << 8)
+        raw[3] = v - ((v & 0x8000) << 1)
+        v = b[10] | (b[11] << 8)
+        raw[4] = v - ((v & 0x8000) << 1)
+        v = b[12] | (b[13] << 8)
+        raw[5] = v - ((v & 0x8000) << 1)
+        v = b[14] | (b[15] << 8)
+        raw[6] = v - ((v & 0x8000) << 1)
         g = self.gyro
         a = self.accel
         g[0] = raw[1] * GYRO_SCALE

@@ -100,11 +100,16 @@ class Radio:
             self.tx_dropped_bytes += n
             return 0
         j = self._tx_head + self._tx_n
-        for i in range(n):
-            if j >= size:
-                j -= size
-            tx[j] = buf[i]
-            j += 1
+        if j >= size:
+            j -= size
+        if j + n <= size:
+            tx[j:j + n] = buf  # one copy in C; no allocation for a whole buffer
+        else:
+            for i in range(n):
+                if j >= size:
+                    j -= size
+                tx[j] = buf[i]
+                j += 1
         self._tx_n += n
         self._push()
         return n

@@ -70,13 +70,15 @@ class RegisterDevice(Device):
     """A chip with 8-bit registers behind an address pointer.
 
     Subclasses give ``_reset_registers()``, ``_auto_increment(subaddr)``,
-    ``_sync()`` (bring outputs up to the present time), ``_after_read(reg)``
-    and ``_write_reg(reg, value)``.
+    ``_sync()`` (bring outputs up to the present time), ``_after_read(first,
+    count)`` (registers ``first .. first+count-1`` were read) and
+    ``_write_reg(reg, value)``.
     """
 
     def __init__(self, address, size=128, clock=None):
         Device.__init__(self, address, clock)
         self.regs = bytearray(size)
+        self._views = {}
         self._ptr = 0
         self._inc = True
         self._reset_registers()
@@ -112,11 +114,29 @@ class RegisterDevice(Device):
             return
         self._sync()
         regs = self.regs
-        for i in range(len(buf)):
-            r = self._ptr
-            buf[i] = regs[r]
-            self._after_read(r)
-            self._advance()
+        p = self._ptr
+        n = len(buf)
+        if not self._inc:
+            v = regs[p]
+            for i in range(n):
+                buf[i] = v
+            self._after_read(p, 1)
+            return
+        if p + n <= len(regs):
+            # One slice copy through a view made on first use of this burst:
+            # no allocation after that, and no per-byte Python loop.
+            key = (p << 8) | n
+            view = self._views.get(key)
+            if view is None:
+                view = memoryview(regs)[p:p + n]
+                self._views[key] = view
+            buf[0:n] = view
+        else:
+            mask = len(regs) - 1
+            for i in range(n):
+                buf[i] = regs[(p + i) & mask]
+        self._ptr = (p + n) & (len(regs) - 1)
+        self._after_read(p, n)
 
     def _set_pointer(self, subaddr):
         self._inc = self._auto_increment(subaddr)
@@ -136,7 +156,7 @@ class RegisterDevice(Device):
     def _sync(self):
         pass
 
-    def _after_read(self, reg):
+    def _after_read(self, first, count):
         pass
 
     def _write_reg(self, reg, value):

@@ -64,6 +64,9 @@ class LIS3MDLDevice(RegisterDevice):
     def __init__(self, address=ADDRESS, clock=None):
         self._phys = array("d", [25.0, 0.2, 0.0, 0.4])  # temp C, field gauss
         self._raw = array("h", [0] * 4)
+        # OUT_X..OUT_Z and TEMP_OUT as the next sample will show them
+        self._field = (bytearray(6), bytearray(6))  # little-, big-endian
+        self._temp = (bytearray(2), bytearray(2))
         RegisterDevice.__init__(self, address, 128, clock)
 
     # ------------------------------------------------------------ twin side
@@ -89,6 +92,10 @@ class LIS3MDLDevice(RegisterDevice):
         k = self.lsb_per_gauss()
         for i in range(1, 4):
             r[i] = clamp_s16(p[i] * k)
+        for be in (0, 1):
+            for i in range(3):
+                self._put(self._field[be], 2 * i, r[1 + i], be)
+            self._put(self._temp[be], 0, r[0], be)
 
     def _period_us(self):
         md = self.regs[_CTRL_REG3] & 3
@@ -128,14 +135,14 @@ class LIS3MDLDevice(RegisterDevice):
         if period and (not was or reg == _CTRL_REG3):
             self._next = self.clock.ticks_add(self.clock.ticks_us(), period)
 
-    def _store(self, at, value, big_endian):
-        regs = self.regs
+    @staticmethod
+    def _put(buf, at, value, big_endian):
         if big_endian:
-            regs[at] = (value >> 8) & 0xFF
-            regs[at + 1] = value & 0xFF
+            buf[at] = (value >> 8) & 0xFF
+            buf[at + 1] = value & 0xFF
         else:
-            regs[at] = value & 0xFF
-            regs[at + 1] = (value >> 8) & 0xFF
+            buf[at] = value & 0xFF
+            buf[at + 1] = (value >> 8) & 0xFF
 
     def _sync(self):
         period = self._period_us()
@@ -148,19 +155,16 @@ class LIS3MDLDevice(RegisterDevice):
         self._next = clock.ticks_add(self._next, (late // period + 1) * period)
         regs = self.regs
         if not self.fault == FAULT_STICK:
-            r = self._raw
-            be = bool(regs[_CTRL_REG4] & 0x02)
-            self._store(_OUT_X_L, r[1], be)
-            self._store(_OUT_X_L + 2, r[2], be)
-            self._store(_OUT_X_L + 4, r[3], be)
+            be = 1 if regs[_CTRL_REG4] & 0x02 else 0
+            regs[_OUT_X_L:_OUT_X_L + 6] = self._field[be]
             if regs[_CTRL_REG1] & 0x80:
-                self._store(_TEMP_OUT_L, r[0], be)
+                regs[_TEMP_OUT_L:_TEMP_OUT_L + 2] = self._temp[be]
         if regs[_STATUS] & 0x08 or late >= period:
             regs[_STATUS] |= 0xF0  # overrun: a sample was overwritten unread
         regs[_STATUS] |= 0x0F
         if regs[_CTRL_REG3] & 3 == 1:
             regs[_CTRL_REG3] |= 3  # single conversion done: power down
 
-    def _after_read(self, reg):
-        if _OUT_X_L <= reg <= _OUT_X_L + 5:
+    def _after_read(self, first, count):
+        if first < _OUT_X_L + 6 and first + count > _OUT_X_L:
             self.regs[_STATUS] = 0

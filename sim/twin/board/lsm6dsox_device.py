@@ -73,6 +73,10 @@ class LSM6DSOXDevice(RegisterDevice):
     def __init__(self, address=ADDRESS, clock=None):
         self._phys = array("d", [25.0, 0.0, 0.0, 0.0, 0.0, 0.0, G])  # temp, gyro, accel
         self._raw = array("h", [0] * 7)
+        # output registers 0x20..0x2D as the next sample will show them
+        self._temp = bytearray(2)
+        self._gyro = bytearray(6)
+        self._accel = bytearray(6)
         RegisterDevice.__init__(self, address, 128, clock)
 
     # ------------------------------------------------------------ twin side
@@ -115,6 +119,10 @@ class LSM6DSOXDevice(RegisterDevice):
         for i in range(3):
             r[1 + i] = clamp_s16(p[1 + i] / g)
             r[4 + i] = clamp_s16(p[4 + i] / a)
+        put_s16_le(self._temp, 0, r[0])
+        for i in range(3):
+            put_s16_le(self._gyro, 2 * i, r[1 + i])
+            put_s16_le(self._accel, 2 * i, r[4 + i])
 
     # ---------------------------------------------------------- chip model
     def _reset_registers(self):
@@ -154,7 +162,6 @@ class LSM6DSOXDevice(RegisterDevice):
         now = clock.ticks_us()
         regs = self.regs
         stuck = self.fault == FAULT_STICK
-        r = self._raw
         code = regs[_CTRL1_XL] >> 4
         if code:
             period = _ODR_US[code]
@@ -162,10 +169,8 @@ class LSM6DSOXDevice(RegisterDevice):
             if late >= 0:
                 self._next_xl = clock.ticks_add(self._next_xl, (late // period + 1) * period)
                 if not stuck:
-                    put_s16_le(regs, _OUTX_L_A, r[4])
-                    put_s16_le(regs, _OUTX_L_A + 2, r[5])
-                    put_s16_le(regs, _OUTX_L_A + 4, r[6])
-                    put_s16_le(regs, _OUT_TEMP_L, r[0])
+                    regs[_OUTX_L_A:_OUTX_L_A + 6] = self._accel
+                    regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                 regs[_STATUS] |= _XLDA | _TDA
         code = regs[_CTRL2_G] >> 4
         if code and code < 11:
@@ -174,16 +179,18 @@ class LSM6DSOXDevice(RegisterDevice):
             if late >= 0:
                 self._next_g = clock.ticks_add(self._next_g, (late // period + 1) * period)
                 if not stuck:
-                    put_s16_le(regs, _OUTX_L_G, r[1])
-                    put_s16_le(regs, _OUTX_L_G + 2, r[2])
-                    put_s16_le(regs, _OUTX_L_G + 4, r[3])
-                    put_s16_le(regs, _OUT_TEMP_L, r[0])
+                    regs[_OUTX_L_G:_OUTX_L_G + 6] = self._gyro
+                    regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                 regs[_STATUS] |= _GDA | _TDA
 
-    def _after_read(self, reg):
-        if _OUTX_L_A <= reg <= _OUTX_L_A + 5:
-            self.regs[_STATUS] &= ~_XLDA & 0xFF
-        elif _OUTX_L_G <= reg <= _OUTX_L_G + 5:
-            self.regs[_STATUS] &= ~_GDA & 0xFF
-        elif reg == _OUT_TEMP_L or reg == _OUT_TEMP_L + 1:
-            self.regs[_STATUS] &= ~_TDA & 0xFF
+    def _after_read(self, first, count):
+        # Reading any byte of an output clears its data-ready bit.
+        end = first + count
+        st = self.regs[_STATUS]
+        if first < _OUTX_L_A + 6 and end > _OUTX_L_A:
+            st &= ~_XLDA & 0xFF
+        if first < _OUTX_L_G + 6 and end > _OUTX_L_G:
+            st &= ~_GDA & 0xFF
+        if first < _OUT_TEMP_L + 2 and end > _OUT_TEMP_L:
+            st &= ~_TDA & 0xFF
+        self.regs[_STATUS] = st

@@ -58,7 +58,7 @@ _PWM_MIN_HZ = const(9)       # 150 MHz / (256 * 65536) rounded up
 _UART_DEFAULT_BUF = const(256)
 _UART_MIN_BUF = const(32)
 _UART_MAX_BUF = const(32766)
-_WIRE_BUF = const(8192)      # bytes the far end of a UART line can hold
+_WIRE_BUF = const(8192)      # bytes the board can send before the twin take()s them
 _MAX_GAP_US = const(100000)  # longest interval paced at once (keeps ints small)
 
 PWRON_RESET = const(1)
@@ -198,19 +198,30 @@ class I2C:
                 found.append(addr)
         return found
 
-    def readfrom_mem_into(self, addr, memaddr, buf, *, addrsize=8):
-        self._device(addr).read_mem(memaddr, buf)
+    # addrsize is keyword-only on the board; accepting it by position too
+    # keeps these calls off MicroPython's slow keyword path.
+    def readfrom_mem_into(self, addr, memaddr, buf, addrsize=8):
+        dev = self._bus.get(addr)
+        if dev is None or not dev.answers():
+            raise OSError(_EIO)
+        dev.read_mem(memaddr, buf)
 
-    def readfrom_mem(self, addr, memaddr, nbytes, *, addrsize=8):
+    def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
         buf = bytearray(nbytes)
         self._device(addr).read_mem(memaddr, buf)
         return bytes(buf)
 
-    def writeto_mem(self, addr, memaddr, buf, *, addrsize=8):
-        self._device(addr).write_mem(memaddr, buf)
+    def writeto_mem(self, addr, memaddr, buf, addrsize=8):
+        dev = self._bus.get(addr)
+        if dev is None or not dev.answers():
+            raise OSError(_EIO)
+        dev.write_mem(memaddr, buf)
 
     def readfrom_into(self, addr, buf, stop=True):
-        self._device(addr).read(buf)
+        dev = self._bus.get(addr)
+        if dev is None or not dev.answers():
+            raise OSError(_EIO)
+        dev.read(buf)
 
     def readfrom(self, addr, nbytes, stop=True):
         buf = bytearray(nbytes)
@@ -218,7 +229,10 @@ class I2C:
         return bytes(buf)
 
     def writeto(self, addr, buf, stop=True):
-        self._device(addr).write(buf)
+        dev = self._bus.get(addr)
+        if dev is None or not dev.answers():
+            raise OSError(_EIO)
+        dev.write(buf)
         return len(buf)
 
     def writevto(self, addr, vector, stop=True):
@@ -294,55 +308,30 @@ class PWM:
 
 
 # ------------------------------------------------------------------ UART
-class _Ring:
-    """Fixed byte queue; ``put`` reports whether the byte fitted."""
-
-    def __init__(self, size):
-        self.buf = bytearray(size)
-        self.head = 0
-        self.n = 0
-
-    def put(self, b):
-        size = len(self.buf)
-        if self.n >= size:
-            return False
-        i = self.head + self.n
-        if i >= size:
-            i -= size
-        self.buf[i] = b
-        self.n += 1
-        return True
-
-    def get(self):
-        b = self.buf[self.head]
-        self.head += 1
-        if self.head >= len(self.buf):
-            self.head = 0
-        self.n -= 1
-        return b
-
-    def clear(self):
-        self.head = 0
-        self.n = 0
-
-
 class _UartLine:
-    """Both ends of one UART: the board's buffers and the wire to the twin.
+    """Both ends of one UART: the board's ring buffers and the wire to the twin.
 
-    ``feed``/``take``/counters are the twin's side; the board's UART object
-    moves bytes at the line rate when it is used (``_pump``).
+    ``feed``, ``take``, ``pending_in`` and the counters are the twin's side;
+    the board's ``UART`` moves bytes at the line rate whenever it is used
+    (``_pump``). Byte loops are written out inline: a method call per byte
+    would make a busy link the slowest part of the twin.
     """
 
     def __init__(self, uart_id):
         self.id = uart_id
-        self.rx = _Ring(_UART_DEFAULT_BUF)
-        self.tx = _Ring(_UART_DEFAULT_BUF)
-        self.wire_in = _Ring(_WIRE_BUF)    # sent by the far end, not yet arrived
-        self.wire_out = _Ring(_WIRE_BUF)   # sent by the board, not yet taken
-        self.byte_ns = 173611              # 57600 baud, 8N1: 10 bits a byte
-        self.rx_dropped = 0                # arrived with the receive buffer full
-        self.in_lost = 0                   # fed faster than the wire can hold
-        self.out_lost = 0                  # the twin did not take() in time
+        self.rx = bytearray(_UART_DEFAULT_BUF)   # the board's receive ring
+        self.rx_head = 0
+        self.rx_n = 0
+        self.tx = bytearray(_UART_DEFAULT_BUF)   # the board's transmit ring
+        self.tx_head = 0
+        self.tx_n = 0
+        self.wire_in = bytearray()               # fed by the far end, not yet arrived
+        self.in_pos = 0
+        self.wire_out = bytearray(_WIRE_BUF)     # sent by the board, not yet taken
+        self.out_n = 0
+        self.byte_ns = 173611                    # 57600 baud, 8N1: 10 bits a byte
+        self.rx_dropped = 0                      # arrived with the receive ring full
+        self.out_lost = 0                        # the twin did not take() in time
         self.open = False
         self._last = time.ticks_us()
         self._credit_in = 0
@@ -350,10 +339,11 @@ class _UartLine:
 
     def configure(self, baudrate, frame_bits, rxbuf, txbuf):
         self.byte_ns = (frame_bits * 1000000000) // baudrate
-        if len(self.rx.buf) != rxbuf:
-            self.rx = _Ring(rxbuf)
-        if len(self.tx.buf) != txbuf:
-            self.tx = _Ring(txbuf)
+        if len(self.rx) != rxbuf:
+            self.rx = bytearray(rxbuf)
+        if len(self.tx) != txbuf:
+            self.tx = bytearray(txbuf)
+        self.rx_head = self.rx_n = self.tx_head = self.tx_n = 0
         self.open = True
         self._last = time.ticks_us()
 
@@ -366,58 +356,121 @@ class _UartLine:
         if dt > _MAX_GAP_US:
             dt = _MAX_GAP_US
         bns = self.byte_ns
-        if self.wire_in.n:
-            self._credit_in += dt * 1000
-            while self._credit_in >= bns and self.wire_in.n:
-                self._credit_in -= bns
-                if not self.rx.put(self.wire_in.get()):
-                    self.rx_dropped += 1
+        waiting = len(self.wire_in) - self.in_pos
+        if waiting:
+            credit = self._credit_in + dt * 1000
+            k = credit // bns
+            if k > waiting:
+                k = waiting
+            self._credit_in = credit - k * bns
+            src = self.wire_in
+            pos = self.in_pos
+            rx = self.rx
+            size = len(rx)
+            head = self.rx_head
+            n = self.rx_n
+            dropped = 0
+            for _ in range(k):
+                if n < size:
+                    j = head + n
+                    if j >= size:
+                        j -= size
+                    rx[j] = src[pos]
+                    n += 1
+                else:
+                    dropped += 1
+                pos += 1
+            self.rx_n = n
+            self.in_pos = pos
+            self.rx_dropped += dropped
         else:
             self._credit_in = 0
-        if self.tx.n:
-            self._credit_out += dt * 1000
-            while self._credit_out >= bns and self.tx.n:
-                self._credit_out -= bns
-                b = self.tx.get()
-                if not self.wire_out.put(b):
-                    # the twin did not take() for seconds: lose the oldest byte
-                    self.wire_out.get()
-                    self.wire_out.put(b)
-                    self.out_lost += 1
+        if self.tx_n:
+            credit = self._credit_out + dt * 1000
+            k = credit // bns
+            if k > self.tx_n:
+                k = self.tx_n
+            self._credit_out = credit - k * bns
+            tx = self.tx
+            size = len(tx)
+            head = self.tx_head
+            out = self.wire_out
+            cap = len(out)
+            m = self.out_n
+            for _ in range(k):
+                if m < cap:
+                    out[m] = tx[head]
+                    m += 1
+                else:
+                    self.out_lost += 1  # the twin did not take() for seconds
+                head += 1
+                if head >= size:
+                    head = 0
+            self.tx_head = head
+            self.tx_n -= k
+            self.out_n = m
         else:
             self._credit_out = 0
 
     # twin side
     def feed(self, data):
-        """Send ``data`` to the board; returns how many bytes the wire took."""
+        """Send ``data`` to the board; it arrives at the line rate."""
         self._pump()
-        n = 0
-        for b in data:
-            if not self.wire_in.put(b):
-                self.in_lost += len(data) - n
-                break
-            n += 1
-        return n
+        if self.in_pos:
+            self.wire_in = self.wire_in[self.in_pos:]
+            self.in_pos = 0
+        self.wire_in.extend(data)
+        return len(data)
 
     def take(self):
         """Bytes the board has sent so far (at the line rate)."""
         self._pump()
-        out = bytearray(self.wire_out.n)
-        for i in range(len(out)):
-            out[i] = self.wire_out.get()
-        return bytes(out)
+        out = bytes(self.wire_out[:self.out_n])
+        self.out_n = 0
+        return out
 
     def pending_in(self):
         """Bytes fed but not yet arrived at the board."""
-        return self.wire_in.n
+        return len(self.wire_in) - self.in_pos
 
     def reset(self):
-        self.rx.clear()
-        self.tx.clear()
-        self.wire_in.clear()
+        self.rx_head = self.rx_n = self.tx_head = self.tx_n = 0
+        self.wire_in = bytearray()
+        self.in_pos = 0
         self.open = False
         self._credit_in = 0
         self._credit_out = 0
+
+    # board side, for UART
+    def get_into(self, buf, start, count):
+        """Move up to ``count`` received bytes into ``buf[start:]``; how many."""
+        n = self.rx_n if self.rx_n < count else count
+        rx = self.rx
+        size = len(rx)
+        head = self.rx_head
+        for i in range(start, start + n):
+            buf[i] = rx[head]
+            head += 1
+            if head >= size:
+                head = 0
+        self.rx_head = head
+        self.rx_n -= n
+        return n
+
+    def put_from(self, buf, start, end):
+        """Queue ``buf[start:end]`` for sending, as much as fits; how many."""
+        tx = self.tx
+        size = len(tx)
+        free = size - self.tx_n
+        n = end - start if end - start < free else free
+        j = self.tx_head + self.tx_n
+        for i in range(start, start + n):
+            if j >= size:
+                j -= size
+            tx[j] = buf[i]
+            j += 1
+        self.tx_n += n
+        return n
 
 
 _UART_BAD_PIN = "bad %s pin"
@@ -492,9 +545,9 @@ class UART:
     def any(self):
         line = self._line
         line._pump()
-        return line.rx.n
+        return line.rx_n
 
-    def _wait(self, us):
+    def _wait(self, us, want_rx):
         # Blocking as the board blocks: sleep in byte times, so the clock
         # (and, in the twin, the world) moves while the firmware waits.
         line = self._line
@@ -504,7 +557,7 @@ class UART:
             time.sleep_us(step)
             waited += step
             line._pump()
-            if line.rx.n:
+            if (line.rx_n if want_rx else len(line.tx) - line.tx_n):
                 return True
         return False
 
@@ -512,21 +565,19 @@ class UART:
         line = self._line
         line._pump()
         n = len(buf) if nbytes < 0 or nbytes > len(buf) else nbytes
-        i = 0
+        i = line.get_into(buf, 0, n)
         while i < n:
-            if line.rx.n == 0:
-                wait = self.timeout if i == 0 else self.timeout_char
-                if wait <= 0 or not self._wait(wait * 1000):
-                    break
-            buf[i] = line.rx.get()
-            i += 1
+            wait = self.timeout if i == 0 else self.timeout_char
+            if wait <= 0 or not self._wait(wait * 1000, True):
+                break
+            i += line.get_into(buf, i, n - i)
         return i if i else None
 
     def read(self, nbytes=-1):
         line = self._line
         line._pump()
         if nbytes < 0:
-            nbytes = line.rx.n if line.rx.n else 1
+            nbytes = line.rx_n if line.rx_n else 1
         buf = bytearray(nbytes)
         n = self.readinto(buf)
         if n is None:
@@ -546,32 +597,18 @@ class UART:
         line = self._line
         line._pump()
         end = len(buf) if sz < 0 or off + sz > len(buf) else off + sz
-        i = off
+        i = off + line.put_from(buf, off, end)
         while i < end:
-            if not line.tx.put(buf[i]):
-                if self.timeout <= 0 or not self._wait_tx(self.timeout * 1000):
-                    break
-                continue
-            i += 1
+            if self.timeout <= 0 or not self._wait(self.timeout * 1000, False):
+                break
+            i += line.put_from(buf, i, end)
         n = i - off
         return n if n else None
-
-    def _wait_tx(self, us):
-        line = self._line
-        step = line.byte_ns // 1000 + 1
-        waited = 0
-        while waited < us:
-            time.sleep_us(step)
-            waited += step
-            line._pump()
-            if line.tx.n < len(line.tx.buf):
-                return True
-        return False
 
     def txdone(self):
         line = self._line
         line._pump()
-        return line.tx.n == 0
+        return line.tx_n == 0
 
     def flush(self):
         line = self._line
@@ -583,8 +620,8 @@ class UART:
 
     def __repr__(self):
         return "UART(%d, baudrate=%d, bits=%d, parity=%s, stop=%d, txbuf=%d, rxbuf=%d, timeout=%d, timeout_char=%d)" % (
-            self._id, self.baudrate, self.bits, self.parity, self.stop, len(self._line.tx.buf),
-            len(self._line.rx.buf), self.timeout, self.timeout_char)
+            self._id, self.baudrate, self.bits, self.parity, self.stop, len(self._line.tx),
+            len(self._line.rx), self.timeout, self.timeout_char)
 
 
 # ------------------------------------------------------------------- ADC
