@@ -11,10 +11,12 @@ from roboray.tools.cli import make_parser, run
 #: to the top level and to ``roboray-sim bench``.
 TOPICS = (
     "roboray.sim.commands.dynamics",
+    "roboray.sim.commands.analysis",
     "roboray.sim.commands.interpreter",
     "roboray.sim.commands.mavlink",
     "roboray.sim.commands.flash",
     "roboray.sim.commands.hardware",
+    "roboray.sim.commands.estimator",
 )
 
 
