@@ -16,7 +16,6 @@ TOPICS = (
     "roboray.sim.commands.mavlink",
     "roboray.sim.commands.flash",
     "roboray.sim.commands.hardware",
-    "roboray.sim.commands.estimator",
 )
 
 
