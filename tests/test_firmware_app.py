@@ -136,3 +136,43 @@ def test_a_dead_loop_lets_the_watchdog_reset_the_board(mp):
     assert mp.eval("cause") == mp.eval("machine.WDT_RESET")
     rc, lines = start(mp)
     assert lines[1] == "reset cause: WDT_RESET"
+
+
+_CPYTHON_RUN = """
+import sys
+from roboray.sim.twin.board import vclock
+sys.modules['time'] = vclock
+from roboray.sim.twin.board import machine
+sys.modules['machine'] = machine
+from roboray.sim.twin.board.ms5837_device import MS5837Device
+from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice
+from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice
+t = machine.twin
+t.attach(0, MS5837Device()).set(130000.0, 16.0)
+t.attach(0, LSM6DSOXDevice())
+t.attach(0, LIS3MDLDevice())
+t.set_adc_volts(0, 7.6 / 3.0)
+import roboray.firmware.app as app
+v = app.build(machine, vclock, param_path=sys.argv[1])
+v.sched.run(100)
+print('reading', v.depth.pressure_pa, v.depth.temp_cc, v.imu.raw[6], v.sched.overruns)
+print('rc', app.main(cycles=10, param_path=sys.argv[1]))
+"""
+
+
+def test_the_same_firmware_runs_on_cpython_with_the_twins_modules(mp, tmp_path):
+    # The twin's --interpreter cpython: the same files, time and machine
+    # swapped in sys.modules of a fresh process, as on MicroPython.
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", _CPYTHON_RUN, str(tmp_path / "params.bin")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "reading 130000 1600 8197 0" in lines      # 1 g at 0.122 mg/LSB: 8197 counts
+    assert "RoboRay firmware unknown unknown" in lines and lines[-1] == "rc 0"
+    mp.exec("wire()\ndev_depth.set(130000.0, 16.0)\nv = app.build(machine, time, param_path=%r)\n"
+            "v.sched.run(100)" % PARAMS)
+    assert "reading %d %d %d %d" % tuple(mp.eval("[v.depth.pressure_pa, v.depth.temp_cc, v.imu.raw[6], "
+                                                 "v.sched.overruns]")) in lines

@@ -13,7 +13,23 @@ this module puts it there:
   ``sys.modules['machine']`` the emulated module, before any firmware is
   imported (``PRELUDE``);
 - ``interpreter()``: a fresh ``MicroPython`` with the board code and the
-  twin installed and ``PRELUDE`` run.
+  twin installed and ``PRELUDE`` run;
+- ``reset(mp)``: back to a bare board at time 0 (``RESET``).
+
+Wiring a twin, inside the interpreter (names from ``board/``)::
+
+    t = machine.twin
+    depth = t.attach(0, MS5837Device())       # I2C0, 0x76
+    imu = t.attach(0, LSM6DSOXDevice())        # 0x6A
+    mag = t.attach(0, LIS3MDLDevice())         # 0x1C
+    vclock.set_hook(step)                      # step(dt_us): world, then devices
+    # in step: depth.set(p_pa, temp_c); imu.set_accel(...); imu.set_gyro(...);
+    # mag.set_field(...); t.set_adc_volts(0, v_batt / 3.0); t.set_pin(15, leak);
+    # wings = [t.pulse_ns(p) for p in (10, 11, 12, 13)];
+    # t.uart(0).feed(ground_bytes); sent = t.uart(0).take(); t.check_watchdog()
+
+The same files run on CPython with ``vclock`` and ``machine`` put into
+``sys.modules`` of a fresh process before the firmware is imported.
 
 ``MACHINE_PY`` is the emulated ``machine`` module alone, importable without
 the rest, for a virtual board that needs a bare Pico 2.
