@@ -129,14 +129,15 @@ class Vehicle:
             self.problems.append("servo calibration: %s; fix the SERVOn_* parameters" % e)
         self.wings.hold_safe()
         self.radio = Radio(p.uart(m))
-        self.battery = Battery(p.battery_adc(m), divider=self._param("BATT_VOLT_MULT", 3.0),
+        adc = p.battery_adc(m)
+        self.battery = Battery(adc, divider=self._param("BATT_VOLT_MULT", 3.0),
                                vref=p.ADC_VREF, period_s=BATTERY_MS / 1000.0, clock=self.clock)
         self.leak = Leak(p.leak_pin(m), active_high=p.LEAK_ACTIVE_HIGH, clock=self.clock)
         if not self.battery.update():
             self.warnings.append(
                 "battery: ADC%d (GP%d) reads %d of 65535, no pack voltage; the low-battery "
                 "failsafe cannot work until a pack is connected through the divider"
-                % (p.BATTERY_ADC_PIN - 26, p.BATTERY_ADC_PIN, self.battery._adc.read_u16()))
+                % (p.BATTERY_ADC_PIN - 26, p.BATTERY_ADC_PIN, adc.read_u16()))
 
     def probe_sensors(self):
         """Start every I2C sensor; a line in ``problems`` for each that fails."""
