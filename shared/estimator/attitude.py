@@ -22,7 +22,12 @@ error, so a magnetic disturbance can never tilt the attitude.
 
 Two gain sets: ``fast`` (after start-up or a reset: converges from 90 deg and
 learns a 1 deg/s bias within seconds while the vehicle is held still) and
-flight (rejects feathering). The estimator switches between them.
+flight (rejects feathering). The estimator switches between them. While
+fast, the bias integrals only run once the tilt error is under 2 deg and
+the heading error under 3 deg (no wind-up during a large alignment), and
+``tilt_settled`` / ``heading_settled`` count the consecutive samples with
+the tilt error under 1 deg and the averaged heading error under 1 deg,
+which the estimator waits for before it trusts the attitude.
 
 Why Mahony and not a multiplicative EKF: the 6-state MEKF needs the 6x6
 covariance propagated every IMU step, about 250 boxed floats more a step on
@@ -83,7 +88,7 @@ class Attitude:
     """
 
     def __init__(self, kp=0.5, ki=0.03, kp_fast=2.0, ki_fast=1.0,
-                 k_heading=0.3, k_heading_fast=1.0, ki_heading=0.005,
+                 k_heading=0.3, k_heading_fast=2.0, ki_heading=0.005,
                  ki_heading_fast=0.5, accel_band=0.06,
                  declination=0.0, field_h=0.2, heading_gate=0.35,
                  reacquire=40, max_bias=0.1):
@@ -109,6 +114,9 @@ class Attitude:
         self.heading_error = 0.0
         self.heading_ratio = 0.0
         self.rejects = 0
+        self.tilt_settled = 0
+        self.heading_settled = 0
+        self._hf = 0.0
         self._ka = kp / _G
         self._ka_fast = kp_fast / _G
         self._kb = ki / kp
@@ -123,6 +131,9 @@ class Attitude:
         hi = _G * (1.0 + accel_band)
         self._f2_lo = lo * lo
         self._f2_hi = hi * hi
+        # |e| = kp sin(tilt error) while fast: wind-up and settling thresholds
+        self._e2_windup = (kp_fast * 0.0348995) * (kp_fast * 0.0348995)    # 2 deg
+        self._e2_settle = (kp_fast * 0.0174524) * (kp_fast * 0.0174524)    # 1 deg
         self._decl = declination
         self._h2_lo = (0.6 * field_h) * (0.6 * field_h)
         self._h2_hi = (1.5 * field_h) * (1.5 * field_h)
@@ -134,6 +145,9 @@ class Attitude:
     # ---------------------------------------------------------------- set-up
     def set_attitude(self, w, x, y, z):
         """Set the quaternion (normalised here) and refresh ``R``."""
+        self.tilt_settled = 0
+        self.heading_settled = 0
+        self._hf = 0.0
         q = self.q
         q[0] = w
         q[1] = x
@@ -211,6 +225,16 @@ class Attitude:
             e[0] = ex
             e[1] = ey
             e[2] = ez
+            self.accel_used = True
+            if self.fast:
+                e2 = ex * ex + ey * ey + ez * ez
+                if e2 < self._e2_settle:
+                    if self.tilt_settled < 10000:
+                        self.tilt_settled += 1
+                else:
+                    self.tilt_settled = 0
+                if e2 > self._e2_windup:
+                    return
             # b_dot = -ki e: e above is kp e, hence ki / kp
             mb = self._max_bias
             bx = b[0] - ex * kb
@@ -222,7 +246,6 @@ class Attitude:
                 b[1] = by
             if -mb < bz < mb:
                 b[2] = bz
-            self.accel_used = True
         else:
             e[0] = 0.0
             e[1] = 0.0
@@ -249,6 +272,16 @@ class Attitude:
         if self.fast:
             k = self.k_heading_fast
             ki = self._kih_fast
+            # settled on the error's average (one sample is noisy: ~1 deg)
+            hf = self._hf + 0.05 * (err - self._hf)
+            self._hf = hf
+            if -0.0174533 < hf < 0.0174533:    # 1 deg
+                if self.heading_settled < 10000:
+                    self.heading_settled += 1
+            else:
+                self.heading_settled = 0
+            if err > 0.0523599 or err < -0.0523599 or self.tilt_settled == 0:
+                ki = 0.0    # beyond 3 deg, or tilted wrong: no bias wind-up
         else:
             k = self.k_heading
             ki = self._kih

@@ -31,11 +31,19 @@ except ImportError:  # CPython
         return x
 
 _G = 9.80665
+#: ``Estimator.job``: the extra job the last ``imu()`` did.
+JOB_NONE = const(0)
+JOB_FIX = const(1)
+JOB_DEPTH = const(2)
+JOB_HOUSEKEEPING = const(3)
+JOB_MAG = const(4)
 _PEND_MAG = const(1)
 _PEND_DEPTH = const(2)
 _PEND_FIX = const(4)
 _HOUSEKEEPING_STEPS = const(10)
 _STALE_US = const(50000)
+_SETTLED_STEPS = const(100)    # 1 s of tilt error < 1 deg ...
+_SETTLED_MAG = const(100)      # ... and 100 heading samples averaging < 1 deg end the alignment
 _MAX_GAP_US = const(250000)
 #: Degrees per radian over four wings: mean fold in degrees from the sum of angles.
 _QUARTER_DEG_PER_RAD = 14.32394487827058
@@ -172,6 +180,7 @@ class Estimator:
         self._fix_seen = False
         self._aligned = False
         self._steps = 0
+        self.job = JOB_NONE
         self._tilt_var = 0.01
         self._head_var = 1.0
         self._wings_changed = True
@@ -197,8 +206,10 @@ class Estimator:
     def set_attitude(self, w, x, y, z):
         """Force the attitude (e.g. a test's wrong start); restarts alignment."""
         self.att.set_attitude(w, x, y, z)
+        self.att.fast = True
         self._t_start = self._t_imu
         self._aligned = True
+        self._outputs()
 
     def reset(self):
         """Forget everything but the configuration; the next samples restart it."""
@@ -220,9 +231,10 @@ class Estimator:
         w[1] = s2
         w[2] = s3
         w[3] = s4
-        self._t_servo = self._t_imu
-        self._servo_seen = True
         self._wings_changed = True
+        if self._started:  # before the first IMU sample there is no time yet
+            self._t_servo = self._t_imu
+            self._servo_seen = True
 
     def mag(self, t_us, mx, my, mz):
         """A raw magnetometer sample (gauss, body axes) measured at ``t_us``."""
@@ -261,19 +273,28 @@ class Estimator:
         p = self._pending
         if p & _PEND_FIX:
             self._pending = p & ~_PEND_FIX
+            self.job = JOB_FIX
             self._fuse_fix()
         elif p & _PEND_DEPTH:
             self._pending = p & ~_PEND_DEPTH
+            self.job = JOB_DEPTH
             self._fuse_depth()
         elif self._steps >= _HOUSEKEEPING_STEPS:
             self._steps = 0
+            self.job = JOB_HOUSEKEEPING
             self._housekeeping()
         elif p:
             self._pending = 0
+            self.job = JOB_MAG
             self._fuse_mag()
+        else:
+            self.job = JOB_NONE
         self._t_imu = t_us
         att = self.att
-        att.fast = ticks_diff(t_us, self._t_start) < self._startup_us
+        if att.fast and ticks_diff(t_us, self._t_start) >= self._startup_us \
+                and att.tilt_settled >= _SETTLED_STEPS \
+                and (att.heading_settled >= _SETTLED_MAG or not self._mag_seen):
+            att.fast = False
         if n <= _MAX_GAP_US:
             dt = n * 1e-6
             att.predict(dt, gx, gy, gz, ax, ay, az)
@@ -293,6 +314,7 @@ class Estimator:
     # ------------------------------------------------------------ internals
     def _start(self, t_us, ax, ay, az):
         self.att.level_from_accel(ax, ay, az)
+        self.att.fast = True
         self._t_imu = t_us
         self._t_start = t_us
         self._started = True

@@ -229,3 +229,25 @@ def acceleration(truth: Truth) -> np.ndarray:
     r = truth.imu_position_body
     lever = np.cross(omega_dot, r) + np.cross(omega, np.cross(omega, r))
     return np.einsum("nij,nj->ni", R, truth.specific_force_imu - lever) + GRAVITY_NED
+
+
+def still(duration_s: float, quaternion=(1.0, 0.0, 0.0, 0.0), depth: float = 1.0, rate_hz: float = 1000.0,
+          profile: DescentProfile = DescentProfile(), wings_deg: float = 20.0) -> Truth:
+    """The vehicle held still at ``depth`` (m, centre of buoyancy) in the
+    attitude ``quaternion`` for ``duration_s``: the simplest truth, for
+    checking sensor statistics and estimator convergence."""
+    if duration_s <= 0:
+        raise ValueError("duration_s %r must be > 0" % duration_s)
+    q = np.asarray(quaternion, dtype=float)
+    q = q / np.linalg.norm(q)
+    n = int(round(duration_s * rate_hz)) + 1
+    t = np.arange(n) / rate_hz
+    R = quaternion_to_matrix(q)
+    port = np.asarray(profile.port_position, dtype=float)
+    return Truth(
+        t=t, position_ned=np.tile([0.0, 0.0, depth], (n, 1)), velocity_ned=np.zeros((n, 3)),
+        quaternion=np.tile(q, (n, 1)), omega_body=np.zeros((n, 3)),
+        specific_force_imu=np.tile(R.T @ -GRAVITY_NED, (n, 1)),
+        depth_sensor=np.full(n, depth + R[2] @ port), wings=np.full((n, 4), wings_deg * DEG),
+        wing_rates=np.zeros((n, 4)), imu_position_body=np.asarray(profile.imu_position, dtype=float),
+    )

@@ -1,0 +1,165 @@
+"""``roboray-sim bench estimator``: the on-board estimator on the standard
+scenario, its errors against truth and its cost on the real MicroPython."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+
+import numpy as np
+
+from roboray.tools.cli import CliError, add_json, command, emit
+
+log = logging.getLogger("roboray.sim.estimator")
+
+#: Targets of issue 6, averaged over the seeds.
+TARGETS = {
+    "attitude_rms_deg": 1.0,
+    "depth_rms_m": 0.01,
+    "vz_rms_mps": 0.01,
+    "horizontal_rms_m": 0.05,
+    "micropython_bytes_per_step": 4000,
+    "estimated_board_ms_per_step": 2.0,
+}
+
+
+def _seeds(args: argparse.Namespace) -> list[int]:
+    if args.seeds < 1:
+        raise CliError("--seeds %d must be at least 1" % args.seeds)
+    if args.seed < 0:
+        raise CliError("--seed %d must be >= 0" % args.seed)
+    return list(range(args.seed, args.seed + args.seeds))
+
+
+def do_bench_estimator(args: argparse.Namespace) -> None:
+    from roboray.sim import estimation
+
+    seeds = _seeds(args)
+    if args.plot and not args.plot.lower().endswith(".png"):
+        raise CliError("--plot %r must name a .png file" % args.plot)
+    per_seed = []
+    first = None
+    for seed in seeds:
+        log.info("seed %d: truth, sensors, estimator", seed)
+        truth = estimation.standard_truth(seed, args.source)
+        logs = estimation.simulate_sensors(truth, seed)
+        t_ticks, calls = estimation.schedule(truth, logs)
+        config = estimation.estimator_config(logs, truth)
+        est = estimation.run(config, calls, t_ticks)
+        scores = estimation.score(truth, est)
+        scores["seed"] = seed
+        per_seed.append(scores)
+        if first is None:
+            first = (truth, logs, est, config, calls)
+    keys = [k for k in per_seed[0] if k != "seed"]
+    result: dict = {k: float(np.mean([s[k] for s in per_seed])) for k in keys}
+    result.update(seeds=seeds, source=args.source, per_seed=per_seed)
+    assert first is not None
+    if not args.no_micropython:
+        log.info("MicroPython: cost of a step")
+        result.update(estimation.micropython_costs(first[3], first[4]))
+    result["targets"] = TARGETS
+    result["meets_targets"] = all(result[k] <= v for k, v in TARGETS.items() if k in result)
+    if args.plot:
+        plot(args.plot, *first[:3])
+        result["plot"] = args.plot
+    emit(args, result, _text)
+
+
+def _text(r: dict) -> str:
+    lines = ["estimator on the standard scenario, seeds %s (%s truth)" % (
+        ",".join(str(s) for s in r["seeds"]), r["source"])]
+    for key in ("attitude_rms_deg", "tilt_rms_deg", "heading_rms_deg", "depth_rms_m", "vz_rms_mps",
+                "horizontal_rms_m", "valid_fraction"):
+        target = TARGETS.get(key)
+        lines.append("  %-28s %10.4g%s" % (key, r[key], "   (target < %g)" % target if target else ""))
+    if "micropython_bytes_per_step" in r:
+        for key in ("micropython_bytes_per_step", "boxed_floats_per_step", "estimated_board_ms_per_step",
+                    "micropython_us_per_step", "board_ms_per_step_from_timing",
+                    "micropython_bytes_all_arrive_cycle"):
+            target = TARGETS.get(key)
+            lines.append("  %-28s %10.4g%s" % (key, r[key], "   (target <= %g)" % target if target else ""))
+        lines.append("  boxed floats by step kind: " + ", ".join(
+            "%s %g" % (k, v["boxed_floats"]) for k, v in r["by_job"].items()))
+    lines.append("  meets targets: %s" % ("yes" if r["meets_targets"] else "NO"))
+    if r.get("plot"):
+        lines.append("  plot: %s" % r["plot"])
+    return "\n".join(lines)
+
+
+def plot(path: str, truth, logs, est) -> None:
+    """Estimates against truth for one run: attitude, depth and vertical
+    speed, horizontal position with the fixes, and the errors."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from roboray.sim import estimation
+    from roboray.sim.sensors.sampling import interpolate, interpolate_quaternion
+    from roboray.sim.truth import quaternion_to_matrix
+
+    t = est.t
+    q_true = interpolate_quaternion(truth.t, truth.quaternion, t)
+    R = quaternion_to_matrix(q_true)
+    roll = np.degrees(np.arctan2(R[:, 2, 1], R[:, 2, 2]))
+    pitch = np.degrees(-np.arcsin(np.clip(R[:, 2, 0], -1, 1)))
+    yaw = np.degrees(np.arctan2(R[:, 1, 0], R[:, 0, 0]))
+    pos = interpolate(truth.t, truth.position_ned, t)
+    vel = interpolate(truth.t, truth.velocity_ned, t)
+    err = estimation.errors(truth, est, since=0.0)
+    fig, ax = plt.subplots(5, 1, figsize=(11, 15), sharex=True)
+    for k, (name, true) in enumerate((("roll", roll), ("pitch", pitch), ("yaw", yaw))):
+        line, = ax[0].plot(t, true, lw=1.0, label=name + " truth")
+        ax[0].plot(t, np.degrees(est.euler[:, k]), "--", lw=1.0, color=line.get_color(), label=name + " estimate")
+    ax[0].set_ylabel("attitude, deg")
+    ax[0].legend(ncol=3, fontsize=8)
+    ax[1].plot(err["t"], np.degrees(err["attitude"]), lw=0.8, label="attitude error")
+    ax[1].plot(err["t"], np.degrees(err["tilt"]), lw=0.8, label="tilt error")
+    ax[1].plot(err["t"], np.degrees(err["heading"]), lw=0.8, label="heading error")
+    ax[1].set_ylabel("error, deg")
+    ax[1].legend(ncol=3, fontsize=8)
+    ax[2].plot(t, pos[:, 2], lw=1.0, label="depth truth")
+    ax[2].plot(t, est.nav[:, 0], "--", lw=1.0, label="depth estimate")
+    ax2 = ax[2].twinx()
+    ax2.plot(t, vel[:, 2], color="C2", lw=0.8, label="v_z truth")
+    ax2.plot(t, est.nav[:, 1], "--", color="C3", lw=0.8, label="v_z estimate")
+    ax[2].set_ylabel("depth, m")
+    ax2.set_ylabel("v_z, m/s")
+    ax[2].invert_yaxis()
+    ax[2].legend(loc="upper left", fontsize=8)
+    ax2.legend(loc="lower right", fontsize=8)
+    fx = logs.fixes
+    for k, name in ((0, "north"), (1, "east")):
+        line, = ax[3].plot(t, pos[:, k], lw=1.0, label=name + " truth")
+        ax[3].plot(t, est.nav[:, 2 + k], "--", lw=1.0, color=line.get_color(), label=name + " estimate")
+        ax[3].plot(fx.t, fx.north if k == 0 else fx.east, ".", ms=3, color=line.get_color(),
+                   label=name + " fixes (at measurement time)")
+    ax[3].set_ylabel("position, m")
+    ax[3].legend(ncol=3, fontsize=8)
+    ax[4].plot(err["t"], 100 * err["depth"], lw=0.8, label="depth error, cm")
+    ax[4].plot(err["t"], 100 * err["vz"], lw=0.8, label="v_z error, cm/s")
+    ax[4].plot(err["t"], 100 * np.hypot(err["north"], err["east"]), lw=0.8, label="horizontal error, cm")
+    ax[4].set_ylabel("error")
+    ax[4].set_xlabel("time, s (released at %g s)" % estimation.HOLD_S)
+    ax[4].legend(ncol=3, fontsize=8)
+    for a in ax:
+        a.axvline(estimation.HOLD_S, color="k", lw=0.5, alpha=0.5)
+        a.grid(alpha=0.3)
+    fig.suptitle("On-board estimator, standard scenario (estimates dashed)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def register(sub, bench) -> None:
+    p = command(bench, "estimator", do_bench_estimator,
+                "the on-board estimator on the standard 60 s scenario: errors against truth, "
+                "heap bytes and time of a step on MicroPython")
+    p.add_argument("--seed", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--seeds", type=int, default=10, help="how many seeds to average (default 10)")
+    p.add_argument("--source", default="kinematic",
+                   help="where the truth comes from (roboray.sim.estimation.TRUTH_SOURCES; default kinematic)")
+    p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython cost figures")
+    p.add_argument("--plot", metavar="FILE.png", help="draw estimates against truth for the first seed")
+    add_json(p)
