@@ -2,9 +2,14 @@
 
 For every configuration of a grid: the largest real part of the eigenvalues
 of (a) the thesis's straight fall in the reduced model (chapter 3: neutral
-buoyancy, no drag, equilibrium 3.2 with v2 = 0 at ``V3_REDUCED``), and
-(b) the steady descent with drag the vehicle settles into (``trim``). Two
-slices: s1 = s3 against s2 = s4, and s1 against s3 with s2 = s4 = 45 deg.
+buoyancy, no drag, equilibrium 3.2 with v2 = 0 at ``V3_REDUCED``; blank
+where the configuration has no such equilibrium: without the symmetry
+s1 = s3, s2 = s4 the locked inertia couples heave to surge and a straight
+fall is not steady), and (b) the steady descent with drag the vehicle
+settles into (``trim``), leaving out a neutral spin mode (flat plates put
+no drag against spin, so a symmetric vehicle's spin eigenvalue is 0 and
+would hide how well its feathering is damped). Two slices: s1 = s3 against
+s2 = s4, and s1 against s3 with s2 = s4 = 45 deg.
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ import numpy as np
 
 from roboray.sim.analysis.envelope import settle_batch
 from roboray.sim.analysis.reduced import ReducedModel, spectrum
-from roboray.sim.analysis.trim import modes
+from roboray.sim.analysis.trim import NEUTRAL_TOL, modes
 from roboray.sim.dynamics import Model
 from roboray.sim.vehicle import Vehicle
 
@@ -36,13 +41,18 @@ def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0) -> dict
         for k, w in enumerate(configs):
             red = ReducedModel.of(vehicle, np.radians(w))
             state = red.no_spin_state(0.0, V3_REDUCED)
-            reduced[k] = spectrum(red.jacobian(state))["max_real_eig"]
+            if np.abs(red.field(state)).max() > 1e-9:
+                reduced[k] = np.nan       # not an equilibrium of this configuration
+            else:
+                reduced[k] = spectrum(red.jacobian(state))["max_real_eig"]
         trims = settle_batch(params, np.array(configs), settle_s)
         drag = np.full(len(configs), np.nan)
         glide = np.full(len(configs), np.nan)
         for k, t in enumerate(trims):
             if t is not None:
-                drag[k] = modes(model, t)["max_real_eig"]
+                lams = [m["eigenvalue"] for m in modes(model, t)["modes"]
+                        if not (m["mode"] == "spin" and abs(m["eigenvalue"][0]) <= NEUTRAL_TOL)]
+                drag[k] = max(lam[0] for lam in lams)
                 glide[k] = t.glide_ratio if t.straight else 0.0
         shape = (len(axis), len(axis))
         out["slices"][name] = {
@@ -62,17 +72,20 @@ def plot(result: dict, path: str) -> None:
     from matplotlib.colors import TwoSlopeNorm
 
     axis = np.array(result["axis_deg"])
+    step = axis[1] - axis[0] if len(axis) > 1 else 1.0
     fig, axes = plt.subplots(2, 2, figsize=(11, 9))
-    extent = (axis[0], axis[-1], axis[0], axis[-1])
+    extent = (axis[0] - step / 2, axis[-1] + step / 2, axis[0] - step / 2, axis[-1] + step / 2)
     for row, (name, sl) in enumerate(result["slices"].items()):
         for col, (key, title) in enumerate((
                 ("reduced_max_real_eig", "reduced model (no drag), straight fall v3 = %g m/s" % result["v3_reduced"]),
-                ("trim_max_real_eig", "full model with drag, settled descent"))):
+                ("trim_max_real_eig", "full model with drag, settled descent (neutral spin left out)"))):
             data = np.array(sl[key], float)
             finite = data[np.isfinite(data)]
             lim = max(1e-3, float(np.abs(finite).max())) if finite.size else 1.0
             ax = axes[row, col]
-            im = ax.imshow(data, origin="lower", extent=extent, cmap="RdBu_r",
+            cmap = matplotlib.colormaps["RdBu_r"].copy()
+            cmap.set_bad("lightgrey")   # no equilibrium / no trim
+            im = ax.imshow(np.ma.masked_invalid(data), origin="lower", extent=extent, cmap=cmap,
                            norm=TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim), aspect="auto")
             ax.set_xlabel(sl["x_label"])
             ax.set_ylabel(sl["y_label"])

@@ -179,12 +179,15 @@ def do_stability_map(args: argparse.Namespace) -> None:
     for name, sl in result["slices"].items():
         red = np.array(sl["reduced_max_real_eig"], float)
         trim = np.array(sl["trim_max_real_eig"], float)
-        summary[name] = {"reduced_unstable_fraction": float(np.mean(red > 1e-6)),
-                         "trim_unstable_fraction": float(np.nanmean(trim > 1e-4))}
+        summary[name] = {"reduced_no_equilibrium_fraction": float(np.mean(np.isnan(red))),
+                         "reduced_unstable_fraction": float(np.mean(red[np.isfinite(red)] > 1e-6)),
+                         "trim_unstable_fraction": float(np.mean(trim[np.isfinite(trim)] > 1e-4))}
     result["summary"] = summary
     emit(args, result, lambda r: "\n".join(
-        ["wrote %s" % r["plot"]] + ["%s: unstable in %.0f%% (reduced model), %.0f%% (with drag)" % (
-            k, 100 * v["reduced_unstable_fraction"], 100 * v["trim_unstable_fraction"]) for k, v in r["summary"].items()]))
+        ["wrote %s" % r["plot"]] + ["%s: unstable in %.0f%% of equilibria (reduced model), %.0f%% of settled "
+                                    "descents (with drag)" % (k, 100 * v["reduced_unstable_fraction"],
+                                                              100 * v["trim_unstable_fraction"])
+                                    for k, v in r["summary"].items()]))
 
 
 # ------------------------------------------------------------ controllability
