@@ -10,7 +10,7 @@ The standard scenario: the vehicle held still just under the surface for
 ``HOLD_S`` (the estimator aligns and learns its gyro bias; the firmware
 launches only once the estimate is valid), then a 60 s feathering descent
 with wing motions. Sensors at their rates: IMU 208 Hz read at 100 Hz,
-magnetometer 80 Hz, pressure 25 Hz, fixes 1 Hz with 0.2 s latency. Scores
+magnetometer 155 Hz, pressure 25 Hz, fixes 1 Hz with 0.2 s latency. Scores
 count the 60 s after release only.
 
 To drive the scenario from the dynamics model, add a source to

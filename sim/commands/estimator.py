@@ -8,7 +8,7 @@ import logging
 
 import numpy as np
 
-from roboray.tools.cli import CliError, add_json, command, emit
+from roboray.tools.cli import UsageError, add_json, command, emit
 
 log = logging.getLogger("roboray.sim.estimator")
 
@@ -23,20 +23,27 @@ TARGETS = {
 }
 
 
-def _seeds(args: argparse.Namespace) -> list[int]:
-    if args.seeds < 1:
-        raise CliError("--seeds %d must be at least 1" % args.seeds)
-    if args.seed < 0:
-        raise CliError("--seed %d must be >= 0" % args.seed)
-    return list(range(args.seed, args.seed + args.seeds))
+def _count(text: str) -> int:
+    """A whole number >= 0 (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
+    if value < 0:
+        raise argparse.ArgumentTypeError("%r must be >= 0" % text)
+    return value
 
 
 def do_bench_estimator(args: argparse.Namespace) -> None:
     from roboray.sim import estimation
 
-    seeds = _seeds(args)
+    if args.seeds < 1:
+        raise UsageError("--seeds must be at least 1")
+    seeds = list(range(args.seed, args.seed + args.seeds))
     if args.plot and not args.plot.lower().endswith(".png"):
-        raise CliError("--plot %r must name a .png file" % args.plot)
+        raise UsageError("--plot %r must name a .png file" % args.plot)
+    if args.source not in estimation.TRUTH_SOURCES:
+        raise UsageError("--source %r unknown; known: %s" % (args.source, ", ".join(sorted(estimation.TRUTH_SOURCES))))
     per_seed = []
     first = None
     for seed in seeds:
@@ -156,8 +163,8 @@ def register(sub, bench) -> None:
     p = command(bench, "estimator", do_bench_estimator,
                 "the on-board estimator on the standard 60 s scenario: errors against truth, "
                 "heap bytes and time of a step on MicroPython")
-    p.add_argument("--seed", type=int, default=0, help="first seed (default 0)")
-    p.add_argument("--seeds", type=int, default=10, help="how many seeds to average (default 10)")
+    p.add_argument("--seed", type=_count, default=0, help="first seed (default 0)")
+    p.add_argument("--seeds", type=_count, default=10, help="how many seeds to average (default 10)")
     p.add_argument("--source", default="kinematic",
                    help="where the truth comes from (roboray.sim.estimation.TRUTH_SOURCES; default kinematic)")
     p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython cost figures")

@@ -4,7 +4,11 @@
 Parts and settings (shared with the firmware's drivers): LSM6DSOX with the
 accelerometer at +-4 g (0.122 mg/LSB) and the gyroscope at +-500 dps
 (17.50 mdps/LSB), both at 208 Hz in high-performance mode; LIS3MDL at +-4
-gauss (6842 LSB/gauss), ultra-high-performance mode, 80 Hz.
+gauss (6842 LSB/gauss), ultra-high-performance mode, 155 Hz (FAST_ODR, as
+``firmware/drivers/lis3mdl.py`` sets it; the datasheet's noise figure is
+used at that rate too). Axes here are the vehicle's body axes (z down when
+level): the firmware maps the chips' axes (LSM6DSOX z up, +9.81 m/s^2 lying
+flat) onto them before calling the estimator.
 
 Datasheet figures (typical values; ST, LSM6DSOX datasheet DS12814 Rev 3,
 table 2 "Mechanical characteristics"; LIS3MDL datasheet DocID024204 Rev 4,
@@ -58,7 +62,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from roboray.sim.sensors.noise import clip, quantize, random_walk, white
+from roboray.sim.sensors.noise import clip16, quantize, random_walk, white
 from roboray.sim.sensors.sampling import interpolate, interpolate_quaternion
 from roboray.sim.truth import Truth, quaternion_to_matrix
 
@@ -73,7 +77,7 @@ class InertialSpec:
 
     rate_hz: float             #: output data rate
     lsb: float                 #: output resolution, SI per LSB
-    full_scale: float          #: range, SI
+    full_scale: float          #: nominal range, SI (the register saturates at 32767 LSB)
     noise_density: float       #: one-sided, SI/sqrt(Hz)
     turn_on_bias: float        #: 1 sigma per axis, SI
     bias_walk: float           #: bias random walk, SI/sqrt(s)
@@ -106,9 +110,9 @@ LSM6DSOX_GYRO = InertialSpec(
 class MagSpec:
     """LIS3MDL at +-4 gauss plus the vehicle's own field (gauss)."""
 
-    rate_hz: float = 80.0
+    rate_hz: float = 155.0
     lsb: float = 1.0 / 6842.0
-    full_scale: float = 4.0
+    full_scale: float = 4.0                      #: nominal; the register saturates at 32767 LSB
     noise_rms: tuple = (3.2e-3, 3.2e-3, 4.1e-3)   #: per axis, at the output rate
     hard_iron: float = 0.1                        #: 1 sigma per axis
     soft_iron: float = 0.03                       #: 1 sigma per matrix term (with cross-axis)
@@ -203,7 +207,7 @@ def inertial(truth: Truth, spec: ImuSpec, rng: np.random.Generator, temperature_
         bias = random_walk(rng, s.bias_walk, t, rng.standard_normal(3) * s.turn_on_bias)
         bias = bias + d_temp[:, None] * (rng.standard_normal(3) * s.bias_tempco)[None, :]
         raw = true @ m.T + bias + white(rng, s.noise_density, s.rate_hz, (n, 3))
-        out[name] = (clip(quantize(raw, s.lsb), s.full_scale, s.lsb), bias)
+        out[name] = (clip16(quantize(raw, s.lsb), s.lsb), bias)
     return InertialLog(t=t, gyro=out["gyro"][0], accel=out["accel"][0],
                        gyro_bias=out["gyro"][1], accel_bias=out["accel"][1])
 
@@ -235,7 +239,7 @@ def magnetometer(truth: Truth, spec: ImuSpec, rng: np.random.Generator) -> MagLo
     hard = rng.standard_normal(3) * ms.hard_iron
     noise = rng.standard_normal((len(t), 3)) * np.asarray(ms.noise_rms)[None, :]
     raw = (earth_body + servo) @ soft.T + hard + noise
-    raw = clip(quantize(raw, ms.lsb), ms.full_scale, ms.lsb)
+    raw = clip16(quantize(raw, ms.lsb), ms.lsb)
     offset = hard + rng.standard_normal(3) * ms.residual_hard_iron
     matrix = _error_matrix(rng, ms.residual_soft_iron, ms.residual_soft_iron) @ np.linalg.inv(soft)
     return MagLog(t=t, field=raw, servo_field=servo, offset=offset, matrix=matrix)

@@ -38,9 +38,11 @@ def quantize(x: np.ndarray, lsb: float) -> np.ndarray:
     return np.round(np.asarray(x) / lsb) * lsb
 
 
-def clip(x: np.ndarray, full_scale: float, lsb: float) -> np.ndarray:
-    """Saturate at the 16-bit register's range: -full_scale .. full_scale - 1 LSB."""
-    return np.clip(x, -full_scale, full_scale - lsb)
+def clip16(x: np.ndarray, lsb: float) -> np.ndarray:
+    """Saturate at a 16-bit two's-complement output register: -32768 ..
+    32767 LSB (ST parts keep converting past their nominal full scale, up to
+    the register's limit: +-573 dps for the +-500 dps gyro setting)."""
+    return np.clip(x, -32768.0 * lsb, 32767.0 * lsb)
 
 
 def allan_deviation(x: np.ndarray, rate_hz: float, taus: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
