@@ -48,31 +48,19 @@ def normalize(q):
 
 def rotate(out, q, v):
     """out = R(q) v: a body vector expressed in NED."""
-    w = q[0]
-    x = q[1]
-    y = q[2]
-    z = q[3]
-    vx = v[0]
-    vy = v[1]
-    vz = v[2]
-    # v + 2 w (u x v) + 2 u x (u x v), with u the vector part
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    out[0] = vx + w * tx + y * tz - z * ty
-    out[1] = vy + w * ty + z * tx - x * tz
-    out[2] = vz + w * tz + x * ty - y * tx
+    _rotate(out, q[0], q[1], q[2], q[3], v)
 
 
 def rotate_inverse(out, q, v):
     """out = R(q)^T v: an NED vector expressed in the body frame."""
-    w = q[0]
-    x = -q[1]
-    y = -q[2]
-    z = -q[3]
+    _rotate(out, q[0], -q[1], -q[2], -q[3], v)
+
+
+def _rotate(out, w, x, y, z, v):
     vx = v[0]
     vy = v[1]
     vz = v[2]
+    # v + 2 w (u x v) + 2 u x (u x v), with u = (x, y, z) the vector part
     tx = 2.0 * (y * vz - z * vy)
     ty = 2.0 * (z * vx - x * vz)
     tz = 2.0 * (x * vy - y * vx)

@@ -485,13 +485,18 @@ def advance(x, cmd, dt, steps, T, xs, sds, nus, vimu, depth):
 
 
 @njit(**_JIT)
+def table_of(T, m):
+    """Row of the tables for vehicle m: 0 when the batch shares one vehicle."""
+    return 0 if T[0].shape[0] == 1 else m
+
+
+@njit(**_JIT)
 def record_all(x, cmd, T, sd, nu, vimu, depth):
     """``record`` for every vehicle at one instant."""
-    shared = T[0].shape[0] == 1
     S = _scratch()
     out3 = np.empty((2, 3))
     for m in range(x.shape[0]):
-        v = 0 if shared else m
+        v = table_of(T, m)
         record(v, x[m], cmd[m], T, S, sd[m], nu[m], out3)
         vimu[m, :] = out3[0]
         depth[m] = out3[1, 0]
@@ -500,11 +505,10 @@ def record_all(x, cmd, T, sd, nu, vimu, depth):
 @njit(**_JIT)
 def rhs(x, cmd, T, out):
     """dx/dt of every vehicle with the servos as part of the ODE."""
-    shared = T[0].shape[0] == 1
     S = _scratch()
     sd = np.empty(4)
     for m in range(x.shape[0]):
-        v = 0 if shared else m
+        v = table_of(T, m)
         servo_rate(T[5], v, x[m, 13:17], cmd[m], sd)
         derivative(v, x[m], sd, T, S, out[m])
 
@@ -512,28 +516,25 @@ def rhs(x, cmd, T, out):
 @njit(**_JIT)
 def body_rhs(x, sd, T, out):
     """dx/dt of every vehicle with given wing rates sd (N, 4)."""
-    shared = T[0].shape[0] == 1
     S = _scratch()
     for m in range(x.shape[0]):
-        v = 0 if shared else m
+        v = table_of(T, m)
         derivative(v, x[m], sd[m], T, S, out[m])
 
 
 @njit(**_JIT)
 def velocities(x, sd, T, out):
     """nu (N, 6) of every vehicle with wing rates sd (N, 4)."""
-    shared = T[0].shape[0] == 1
     S = _scratch()
     for m in range(x.shape[0]):
-        v = 0 if shared else m
+        v = table_of(T, m)
         velocity_of(v, x[m], sd[m], T, S, out[m])
 
 
 @njit(**_JIT)
 def inertia(s, T, mvv, mvs):
     """M_vv (N, 6, 6) and M_vs (N, 6, 4) at wing angles s (N, 4)."""
-    shared = T[0].shape[0] == 1
     basis = np.empty((4, NB))
     for m in range(s.shape[0]):
-        v = 0 if shared else m
+        v = table_of(T, m)
         inertia_into(v, s[m], T, basis, mvv[m], mvs[m])

@@ -281,25 +281,15 @@ class Vehicle:
 
     def rigid_inertia(self, wings: np.ndarray, point: np.ndarray) -> np.ndarray:
         """6x6 rigid-body inertia about ``point`` (body axes), twist order (v, w)."""
-        total = np.zeros((6, 6))
-        for pl in self.plates(wings):
-            total += spatial_inertia(pl.mass, pl.centroid - point, pl.rotation @ pl.inertia @ pl.rotation.T)
+        total = sum(plate_rigid_inertia(pl, point) for pl in self.plates(wings))
         for l in self.lumps:
-            total += spatial_inertia(l.mass, l.centroid - point, l.inertia)
+            total = total + spatial_inertia(l.mass, l.centroid - point, l.inertia)
         return total
 
     def added_inertia(self, wings: np.ndarray, point: np.ndarray) -> np.ndarray:
         """6x6 added (fluid) inertia about ``point``: rank one along each plate's
         normal for translation (eq. 2.2) plus the added inertias (eqs. 2.3-2.4)."""
-        total = np.zeros((6, 6))
-        for pl in self.plates(wings):
-            local = np.zeros((6, 6))
-            local[:3, :3] = pl.added_mass * np.outer(pl.normal, pl.normal)
-            rot = pl.rotation
-            local[3:, 3:] = rot @ np.diag([pl.added_inertia[0], pl.added_inertia[1], 0.0]) @ rot.T
-            x = twist_transform(pl.centroid - point)
-            total += x.T @ local @ x
-        return total
+        return sum(plate_added_inertia(pl, point) for pl in self.plates(wings))
 
     def locked_inertia(self, wings: np.ndarray, point: np.ndarray | None = None) -> np.ndarray:
         """Rigid plus added 6x6 inertia of the vehicle with the wings locked,
@@ -316,12 +306,7 @@ class Vehicle:
     def wing_inertia(self, i: int, wings: np.ndarray, point: np.ndarray) -> np.ndarray:
         """6x6 rigid plus added inertia of wing i alone, about ``point``."""
         pl = self.plates(wings)[i + 1]
-        rigid = spatial_inertia(pl.mass, pl.centroid - point, pl.rotation @ pl.inertia @ pl.rotation.T)
-        local = np.zeros((6, 6))
-        local[:3, :3] = pl.added_mass * np.outer(pl.normal, pl.normal)
-        local[3:, 3:] = pl.rotation @ np.diag([pl.added_inertia[0], pl.added_inertia[1], 0.0]) @ pl.rotation.T
-        x = twist_transform(pl.centroid - point)
-        return rigid + x.T @ local @ x
+        return plate_rigid_inertia(pl, point) + plate_added_inertia(pl, point)
 
     def generalized_inertia(self, wings: np.ndarray) -> np.ndarray:
         """10x10 inertia of (V, Omega, s_dot) at O: kinetic energy is
@@ -394,6 +379,21 @@ def spatial_inertia(m: float, c: np.ndarray, i_c: np.ndarray) -> np.ndarray:
     out[3:, :3] = m * cx
     out[3:, 3:] = i_c - m * cx @ cx
     return out
+
+
+def plate_rigid_inertia(pl: Plate, point: np.ndarray) -> np.ndarray:
+    """A plate's 6x6 rigid inertia about ``point``."""
+    return spatial_inertia(pl.mass, pl.centroid - point, pl.rotation @ pl.inertia @ pl.rotation.T)
+
+
+def plate_added_inertia(pl: Plate, point: np.ndarray) -> np.ndarray:
+    """A plate's 6x6 added inertia about ``point``: its added mass along the
+    normal and its added inertias about the in-plane axes, at the centroid."""
+    local = np.zeros((6, 6))
+    local[:3, :3] = pl.added_mass * np.outer(pl.normal, pl.normal)
+    local[3:, 3:] = pl.rotation @ np.diag([pl.added_inertia[0], pl.added_inertia[1], 0.0]) @ pl.rotation.T
+    x = twist_transform(pl.centroid - point)
+    return x.T @ local @ x
 
 
 def twist_transform(c: np.ndarray) -> np.ndarray:
