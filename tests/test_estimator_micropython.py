@@ -49,9 +49,10 @@ def test_step_costs_stay_within_the_bench_figures(micropython, prepared):
     costs = E.micropython_costs(prepared.config, prepared.calls, warm=warm, measured=measured, mp=micropython)
     assert costs["micropython_bytes_per_step"] <= 4000
     assert costs["estimated_board_ms_per_step"] <= 2.0
-    # every kind of step happened and was measured
-    assert set(costs["by_job"]) == set(E.JOB_NAMES.values())
-    assert costs["by_job"]["imu"]["bytes"] < costs["by_job"]["imu+depth"]["bytes"]
+    # every kind of job happened and was measured (a step without a job is
+    # rare: the magnetometer's 155 Hz leaves one pending nearly every step)
+    assert {"imu+fix", "imu+depth", "imu+housekeeping", "imu+mag"} <= set(costs["by_job"])
+    assert max(v["bytes"] for v in costs["by_job"].values()) == costs["micropython_bytes_per_step"]
     # two more all-arrive ticks after the bench's: alloc_bytes warms up on
     # the first and measures the second
     cycle = E.all_arrive(prepared.calls[:warm + 2 * measured])
