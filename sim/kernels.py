@@ -50,19 +50,17 @@ _JIT = dict(cache=True, nogil=True)
 
 def scratch():
     """Work arrays for one vehicle evaluation (make one per thread)."""
-    return (np.empty((4, NB)), np.empty((6, 6)), np.empty((6, 4)), np.empty(6), np.empty((6, 6)),
+    return (np.empty((4, NB)), np.empty((6, 6)), np.empty((6, 4)), np.empty(6), np.zeros((6, 6)),
             np.empty(6), np.empty(6), np.empty((3, 3)), np.empty((5, 3)), np.empty((5, 3)),
-            np.empty((13, 3)))
+            np.empty((13, 3)), np.empty((4, 2)))
 
 
 _scratch = njit(**_JIT)(scratch)
 
 
 @njit(**_JIT)
-def _basis(s, out):
-    """out[0..8] = 1, cos s, sin s, cos 2s, sin 2s, ..., sin 4s."""
-    c1 = math.cos(s)
-    s1 = math.sin(s)
+def _basis(c1, s1, out):
+    """out[0..8] = 1, cos s, sin s, cos 2s, sin 2s, ..., sin 4s from c1 = cos s, s1 = sin s."""
     c2 = c1 * c1 - s1 * s1
     s2 = 2.0 * s1 * c1
     out[0] = 1.0
@@ -77,13 +75,22 @@ def _basis(s, out):
 
 
 @njit(**_JIT)
-def inertia_into(v, s, T, basis, mvv, mvs):
-    """M_vv (6x6) and M_vs (6x4) of vehicle table v at wing angles s (4,)."""
+def trig(s, cs):
+    """cs[i] = (cos s_i, sin s_i): every use of the wing angles needs both."""
+    for i in range(4):
+        cs[i, 0] = math.cos(s[i])
+        cs[i, 1] = math.sin(s[i])
+
+
+@njit(**_JIT)
+def inertia_into(v, cs, T, basis, mvv, mvs):
+    """M_vv (6x6) and M_vs (6x4) of vehicle table v at wing angles whose
+    cosines and sines are cs (4, 2)."""
     c0, vv_idx, vv_val, vs_idx, vs_val = T[0], T[1], T[2], T[3], T[4]
     for k in range(36):
         mvv[k // 6, k % 6] = c0[v, k]
     for i in range(4):
-        _basis(s[i], basis[i])
+        _basis(cs[i, 0], cs[i, 1], basis[i])
     for t in range(vv_idx.shape[0]):
         k = vv_idx[t, 2]
         mvv[k // 6, k % 6] += basis[vv_idx[t, 0], vv_idx[t, 1]] * vv_val[v, t]
@@ -96,9 +103,8 @@ def inertia_into(v, s, T, basis, mvv, mvs):
 
 
 @njit(**_JIT)
-def solve6(a, b, l, y, out):
-    """Solve a x = b for symmetric positive definite a (6x6) by Cholesky;
-    l (6x6) and y (6,) are scratch."""
+def cholesky6(a, l):
+    """l l^T = a for symmetric positive definite a (6x6)."""
     for i in range(6):
         for j in range(i + 1):
             acc = a[i, j]
@@ -108,6 +114,11 @@ def solve6(a, b, l, y, out):
                 l[i, i] = math.sqrt(acc)
             else:
                 l[i, j] = acc / l[j, j]
+
+
+@njit(**_JIT)
+def solve6(l, b, y, out):
+    """Solve l l^T x = b; y (6,) is scratch."""
     for i in range(6):
         acc = b[i]
         for k in range(i):
@@ -144,20 +155,31 @@ def add_cross(a, b, out):
 
 
 @njit(**_JIT)
-def velocity_of(v, x, sd, T, S, nu):
+def factor(v, x, T, S):
+    """Wing trig, M_vv, M_vs and the Cholesky factor of M_vv for state x: all
+    that depends on the wing angles alone (RK4's two midpoint stages share it)."""
+    cs = S[11]
+    trig(x[13:17], cs)
+    inertia_into(v, cs, T, S[0], S[1], S[2])
+    cholesky6(S[1], S[4])
+
+
+@njit(**_JIT)
+def velocity_of(v, x, sd, T, S, nu, factored=False):
     """nu = M_vv^-1 (h - M_vs s_dot), eq. (K3), for one vehicle's state x (17,)."""
-    basis, mvv, mvs, rhs, l, y = S[0], S[1], S[2], S[3], S[4], S[5]
-    inertia_into(v, x[13:17], T, basis, mvv, mvs)
+    if not factored:
+        factor(v, x, T, S)
+    mvs, rhs = S[2], S[3]
     for m in range(6):
         acc = x[7 + m]
         for i in range(4):
             acc -= mvs[m, i] * sd[i]
         rhs[m] = acc
-    solve6(mvv, rhs, l, y, nu)
+    solve6(S[4], rhs, S[5], nu)
 
 
 @njit(**_JIT)
-def plates(v, s, p, cen, nor):
+def plates(v, cs, p, cen, nor):
     """Centroids and normals (5, 3) of the centre plate and the wings."""
     hw3 = p[v, P_HW] / 3.0
     half = p[v, P_HALF_SIDE]
@@ -166,8 +188,8 @@ def plates(v, s, p, cen, nor):
     nor[0, 1] = 0.0
     nor[0, 2] = 1.0
     for i in range(4):
-        c = math.cos(s[i])
-        si = math.sin(s[i])
+        c = cs[i, 0]
+        si = cs[i, 1]
         for k in range(3):
             cen[1 + i, k] = (half + hw3 * c) * RADIAL[i, k]
             nor[1 + i, k] = si * RADIAL[i, k]
@@ -197,11 +219,12 @@ def water_at(opt, depth, out):
 
 
 @njit(**_JIT)
-def derivative(v, x, sd, T, S, dx):
-    """dx/dt (17,) of one vehicle whose wings move at sd (4,)."""
+def derivative(v, x, sd, T, S, dx, factored=False):
+    """dx/dt (17,) of one vehicle whose wings move at sd (4,); ``factored``:
+    S already holds ``factor`` of these wing angles."""
     p, opt = T[5], T[6]
-    nu, r, cen, nor, vec = S[6], S[7], S[8], S[9], S[10]
-    velocity_of(v, x, sd, T, S, nu)
+    nu, r, cen, nor, vec, cs = S[6], S[7], S[8], S[9], S[10], S[11]
+    velocity_of(v, x, sd, T, S, nu, factored)
     V = nu[0:3]
     W = nu[3:6]
     q = x[3:7]
@@ -211,7 +234,7 @@ def derivative(v, x, sd, T, S, dx):
     force[:] = 0.0
     moment[:] = 0.0
     s = x[13:17]
-    plates(v, s, p, cen, nor)
+    plates(v, cs, p, cen, nor)
     if opt[O_GRAVITY] > 0.0:
         # Weight at the CG, buoyancy at the CB; Gamma = R^T k.
         rg = vec[_RG]
@@ -230,7 +253,7 @@ def derivative(v, x, sd, T, S, dx):
     water = vec[_WATER]
     water_at(opt, x[2], water)
     if opt[O_DRAG] > 0.0:
-        _drag(v, x, sd, V, W, r, water, p, cen, nor, vec, force, moment)
+        _drag(v, cs, sd, V, W, r, water, p, cen, nor, vec, force, moment)
     if opt[O_BOTTOM] > 0.0:
         _bottom(v, x, V, W, r, p, opt, vec, force, moment)
     if opt[O_CURRENT] > 0.0:
@@ -264,7 +287,7 @@ def derivative(v, x, sd, T, S, dx):
 
 
 @njit(**_JIT)
-def _drag(v, x, sd, V, W, r, water, p, cen, nor, vec, force, moment):
+def _drag(v, cs, sd, V, W, r, water, p, cen, nor, vec, force, moment):
     """Plate-normal pressure drag at each centroid, skin friction, and the
     rotational drag of each plate about its in-plane axes."""
     hw3 = p[v, P_HW] / 3.0
@@ -282,11 +305,9 @@ def _drag(v, x, sd, V, W, r, water, p, cen, nor, vec, force, moment):
         u[2] = V[2] - wb[2] + W[0] * cen[pl, 1] - W[1] * cen[pl, 0]
         if pl > 0:
             i = pl - 1
-            c = math.cos(x[13 + i])
-            s = math.sin(x[13 + i])
             for k in range(3):
-                u[k] -= hw3 * sd[i] * s * RADIAL[i, k]
-            u[2] -= hw3 * sd[i] * c
+                u[k] -= hw3 * sd[i] * cs[i, 1] * RADIAL[i, k]
+            u[2] -= hw3 * sd[i] * cs[i, 0]
         un = u[0] * nor[pl, 0] + u[1] * nor[pl, 1] + u[2] * nor[pl, 2]
         area = p[v, P_AREA_C] if pl == 0 else p[v, P_AREA_W]
         fn = -0.5 * rho * p[v, P_CD] * area * un * abs(un)
@@ -415,7 +436,7 @@ def rk4_one(v, x, cmd, dt, T, S, ks, out):
     derivative(v, y, sd_mid, T, S, k2)
     for j in range(13):
         y[j] = x[j] + 0.5 * dt * k2[j]
-    derivative(v, y, sd_mid, T, S, k3)
+    derivative(v, y, sd_mid, T, S, k3, True)   # same wing angles as stage 2
     for j in range(13):
         y[j] = x[j] + dt * k3[j]
     y[13:17] = s_end
@@ -535,6 +556,8 @@ def velocities(x, sd, T, out):
 def inertia(s, T, mvv, mvs):
     """M_vv (N, 6, 6) and M_vs (N, 6, 4) at wing angles s (N, 4)."""
     basis = np.empty((4, NB))
+    cs = np.empty((4, 2))
     for m in range(s.shape[0]):
         v = table_of(T, m)
-        inertia_into(v, s[m], T, basis, mvv[m], mvs[m])
+        trig(s[m], cs)
+        inertia_into(v, cs, T, basis, mvv[m], mvs[m])
