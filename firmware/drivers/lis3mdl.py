@@ -27,6 +27,7 @@ except ImportError:  # CPython
     def const(x):
         return x
 
+from roboray.firmware.drivers.registers import Registers
 from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
 
 ADDRESS = const(0x1C)
@@ -60,7 +61,7 @@ MAG_SCALE = 1.0 / 6842.0
 TEMP_SCALE = 1.0 / 8.0
 
 
-class LIS3MDL:
+class LIS3MDL(Registers):
     """LIS3MDL on ``i2c`` at ``address`` (0x1C, or 0x1E with SDO high).
 
     Raises OSError naming the address when nothing answers, another part
@@ -68,38 +69,22 @@ class LIS3MDL:
     back.
     """
 
+    PART = "LIS3MDL"
+
     def __init__(self, i2c, address=ADDRESS, clock=None, timeout_ms=100):
         if clock is None:
             import time as clock
-        self._i2c = i2c
-        self.address = address
+        Registers.__init__(self, i2c, address)
         self._clock = clock
         self._buf = bytearray(9)
-        self._reg = bytearray(1)
         self.mag_gauss = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 4)
         self.health = Health(clock, timeout_ms)
         self.overruns = 0
         self.reconfigurations = 0
-        try:
-            who = self._read_reg(_WHO_AM_I)
-        except OSError as e:
-            raise self._fail("no answer (%s)" % e)
-        if who != _ID:
-            raise self._fail("WHO_AM_I is 0x%02X, expected 0x%02X: another part at this address" % (who, _ID))
+        self._check_identity(_WHO_AM_I, _ID)
         self._configure()
-
-    def _fail(self, what):
-        return OSError("LIS3MDL at I2C address 0x%02X: %s" % (self.address, what))
-
-    def _read_reg(self, reg):
-        self._i2c.readfrom_mem_into(self.address, reg, self._reg)
-        return self._reg[0]
-
-    def _write_reg(self, reg, value):
-        self._reg[0] = value
-        self._i2c.writeto_mem(self.address, reg, self._reg)
 
     def _configure(self):
         self._write_reg(_CTRL_REG2, _SOFT_RST)

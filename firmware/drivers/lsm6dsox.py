@@ -26,6 +26,7 @@ except ImportError:  # CPython
     def const(x):
         return x
 
+from roboray.firmware.drivers.registers import Registers
 from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
 
 ADDRESS = const(0x6A)
@@ -57,7 +58,7 @@ GYRO_SCALE = 17.50e-3 * 3.141592653589793 / 180.0
 TEMP_SCALE = 1.0 / 256.0
 
 
-class LSM6DSOX:
+class LSM6DSOX(Registers):
     """LSM6DSOX on ``i2c`` at ``address`` (0x6A, or 0x6B with SDO high).
 
     Raises OSError naming the address when nothing answers, another part
@@ -65,38 +66,22 @@ class LSM6DSOX:
     not read back.
     """
 
+    PART = "LSM6DSOX"
+
     def __init__(self, i2c, address=ADDRESS, clock=None, timeout_ms=50):
         if clock is None:
             import time as clock
-        self._i2c = i2c
-        self.address = address
+        Registers.__init__(self, i2c, address)
         self._clock = clock
         self._buf = bytearray(16)
-        self._reg = bytearray(1)
         self.accel = array("f", [0.0, 0.0, 0.0])
         self.gyro = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 7)
         self.health = Health(clock, timeout_ms)
         self.reconfigurations = 0
-        try:
-            who = self._read_reg(_WHO_AM_I)
-        except OSError as e:
-            raise self._fail("no answer (%s)" % e)
-        if who != _ID:
-            raise self._fail("WHO_AM_I is 0x%02X, expected 0x%02X: another part at this address" % (who, _ID))
+        self._check_identity(_WHO_AM_I, _ID)
         self._configure()
-
-    def _fail(self, what):
-        return OSError("LSM6DSOX at I2C address 0x%02X: %s" % (self.address, what))
-
-    def _read_reg(self, reg):
-        self._i2c.readfrom_mem_into(self.address, reg, self._reg)
-        return self._reg[0]
-
-    def _write_reg(self, reg, value):
-        self._reg[0] = value
-        self._i2c.writeto_mem(self.address, reg, self._reg)
 
     def _configure(self):
         self._write_reg(_CTRL3_C, _SW_RESET | 0x04)

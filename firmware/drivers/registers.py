@@ -1,0 +1,38 @@
+"""Byte registers of a part on an I2C bus: reads, writes and identity.
+
+The IMU parts (LSM6DSOX, LIS3MDL) are register maps behind one address;
+this is what their drivers share. One preallocated byte, so a register
+access allocates nothing; every failure names the part and its address.
+"""
+
+
+class Registers:
+    """Base of a register-map driver: ``i2c`` injected, ``address`` 7-bit."""
+
+    PART = "I2C part"
+
+    def __init__(self, i2c, address):
+        self._i2c = i2c
+        self.address = address
+        self._reg = bytearray(1)
+
+    def _fail(self, what):
+        return OSError("%s at I2C address 0x%02X: %s" % (self.PART, self.address, what))
+
+    def _read_reg(self, reg):
+        self._i2c.readfrom_mem_into(self.address, reg, self._reg)
+        return self._reg[0]
+
+    def _write_reg(self, reg, value):
+        self._reg[0] = value
+        self._i2c.writeto_mem(self.address, reg, self._reg)
+
+    def _check_identity(self, reg, expected):
+        """Raise OSError unless register ``reg`` reads ``expected``."""
+        try:
+            who = self._read_reg(reg)
+        except OSError as e:
+            raise self._fail("no answer (%s)" % e)
+        if who != expected:
+            raise self._fail("WHO_AM_I is 0x%02X, expected 0x%02X: another part at this address"
+                             % (who, expected))
