@@ -53,7 +53,6 @@ _ZYXOR = const(0x80)
 
 _TEMP_MIN = const(-520)        # (-40 C - 25 C) * 8 LSB/C
 _TEMP_MAX = const(480)         # (85 C - 25 C) * 8
-_RECOVER_AFTER = const(10)
 
 #: gauss per LSB at +-4 gauss (6842 LSB/gauss, datasheet).
 MAG_SCALE = 1.0 / 6842.0
@@ -82,7 +81,6 @@ class LIS3MDL(Registers):
         self.raw = array("h", [0] * 4)
         self.health = Health(clock, timeout_ms)
         self.overruns = 0
-        self.reconfigurations = 0
         self._check_identity(_WHO_AM_I, _ID)
         self._configure()
 
@@ -143,12 +141,3 @@ class LIS3MDL(Registers):
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
         health.good()
         return True
-
-    def _recover(self):
-        if self.health.consecutive % _RECOVER_AFTER:
-            return
-        try:
-            self._configure()
-            self.reconfigurations += 1
-        except OSError:
-            pass

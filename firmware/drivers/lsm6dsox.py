@@ -48,7 +48,6 @@ _RESERVED = const(0xF8)
 
 _TEMP_MIN = const(-16640)      # (-40 C - 25 C) * 256 LSB/C: the part's range
 _TEMP_MAX = const(15360)       # (85 C - 25 C) * 256
-_RECOVER_AFTER = const(10)
 
 #: m/s^2 per LSB at +-4 g: 0.122 mg (datasheet) * 9.80665.
 ACCEL_SCALE = 0.122e-3 * 9.80665
@@ -79,7 +78,6 @@ class LSM6DSOX(Registers):
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 7)
         self.health = Health(clock, timeout_ms)
-        self.reconfigurations = 0
         self._check_identity(_WHO_AM_I, _ID)
         self._configure()
 
@@ -146,12 +144,3 @@ class LSM6DSOX(Registers):
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
         health.good()
         return True
-
-    def _recover(self):
-        if self.health.consecutive % _RECOVER_AFTER:
-            return
-        try:
-            self._configure()
-            self.reconfigurations += 1
-        except OSError:
-            pass

@@ -5,6 +5,16 @@ this is what their drivers share. One preallocated byte, so a register
 access allocates nothing; every failure names the part and its address.
 """
 
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+# A part that keeps failing is reconfigured every this many failures: it may
+# have reset itself on a supply dip and lost its configuration.
+_RECOVER_AFTER = const(10)
+
 
 class Registers:
     """Base of a register-map driver: ``i2c`` injected, ``address`` 7-bit."""
@@ -15,6 +25,7 @@ class Registers:
         self._i2c = i2c
         self.address = address
         self._reg = bytearray(1)
+        self.reconfigurations = 0
 
     def _fail(self, what):
         return OSError("%s at I2C address 0x%02X: %s" % (self.PART, self.address, what))
@@ -36,3 +47,14 @@ class Registers:
         if who != expected:
             raise self._fail("WHO_AM_I is 0x%02X, expected 0x%02X: another part at this address"
                              % (who, expected))
+
+    def _recover(self):
+        """After repeated failures, try the configuration again (the driver's
+        ``_configure``; its failures are counted by ``health``)."""
+        if self.health.consecutive % _RECOVER_AFTER:
+            return
+        try:
+            self._configure()
+            self.reconfigurations += 1
+        except OSError:
+            pass
