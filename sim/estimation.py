@@ -158,7 +158,12 @@ def build(cfg):
     hor = dict(cfg["horizontal"])
     if "tau" not in hor:
         hor["tau"] = TAU_S
-    est = Estimator(attitude=Attitude(**cfg["attitude"]), vertical=Vertical(**cfg["vertical"]),
+    if cfg.get("attitude_filter") == "mekf":
+        from roboray.shared.estimator.mekf import Mekf
+        att = Mekf(**cfg["attitude"])
+    else:
+        att = Attitude(**cfg["attitude"])
+    est = Estimator(attitude=att, vertical=Vertical(**cfg["vertical"]),
                     horizontal=Horizontal(**hor), **cfg["estimator"])
     est.set_mag_calibration(cfg["mag_offset"], cfg["mag_matrix"])
     est.zero_depth(cfg["surface_pressure_pa"], 0.0)
@@ -402,6 +407,57 @@ def mul_loop(n):
     return time.ticks_diff(time.ticks_us(), t0) / n
 """
 
+#: Where a step's floats go: each stage called alone on the flying
+#: estimator (white box: each call is set up to do its full work).
+_STAGES = """
+def __stage_setup(est):
+    global __e, __g, __a
+    __e = est
+    __g = [0.02, -0.03, 0.25]
+    __a = [0.3, -0.2, -9.7]
+
+def __imu_predict():
+    __e.att.predict(0.01, __g[0], __g[1], __g[2], __a[0], __a[1], __a[2])
+
+def __rotation():
+    __e.att._rotation()
+
+def __vertical_predict():
+    __e.vert.predict(0.01, __a[2])
+
+def __horizontal_predict():
+    R = __e.att.R
+    __e.hor.predict(__e._t_imu, 0.01, R[2], R[5], R[8], __e.vert.x[1])
+
+def __outputs():
+    __e._outputs()
+
+def __health():
+    __e._health(__e._t_imu)
+
+def __imu_step():
+    __e._pending = 0
+    __e._steps = 0
+    __e.imu((__e._t_imu + 10000) & 0x3FFFFFFF, __g[0], __g[1], __g[2], __a[0], __a[1], __a[2])
+"""
+
+STAGES = {
+    "imu step without a job": "__imu_step()",
+    "  attitude predict (gyro, accelerometer, rotation matrix)": "__imu_predict()",
+    "    of which the rotation matrix": "__rotation()",
+    "  vertical predict": "__vertical_predict()",
+    "  horizontal predict (descent model, history ring)": "__horizontal_predict()",
+    "  outputs (Euler angles, centre-of-buoyancy depth and vertical speed)": "__outputs()",
+    "  health flags": "__health()",
+}
+#: The jobs' own floats: their steps' worst minus a step without a job.
+JOB_STAGES = {
+    "imu+mag": "magnetometer fusion (calibration, heading, bias)",
+    "imu+depth": "depth fusion (covariance to now, update)",
+    "imu+fix": "fix fusion (covariance to now, history look-up, update)",
+    "imu+housekeeping": "housekeeping (covariances, variance model, normalisation, descent gain)",
+}
+
 JOB_NAMES = {0: "imu", 1: "imu+fix", 2: "imu+depth", 3: "imu+housekeeping", 4: "imu+mag"}
 
 
@@ -429,6 +485,17 @@ def all_arrive(calls: list, follow: int = 11) -> list:
         tick.append(["m", (t - 5000) & TICKS_MAX] + list(last["m"][2:]))
         tick.append(["i", t] + list(last["i"][2:]))
         out.append(tick)
+    return out
+
+
+def _by_stage(stages: dict, by_job: dict) -> dict:
+    if not stages:
+        return {}
+    out = dict(stages)
+    plain = stages["imu step without a job"]
+    for job, name in JOB_STAGES.items():
+        if job in by_job:
+            out[name] = by_job[job]["boxed_floats"] - plain
     return out
 
 
@@ -466,6 +533,10 @@ def micropython_costs(config: dict, calls: list, warm: int = 1100, measured: int
         us_step = float(mp.eval("timed(__est, json.load(open('/tmp/est_timed.json')))"))
         cyc = mp.eval("measure(__est, json.load(open('/tmp/est_forced.json')))")
         us_mul = float(mp.eval("mul_loop(100000)"))
+        stages = {}
+        if config.get("attitude_filter", "mahony") == "mahony":
+            mp.exec(_STAGES + "__stage_setup(__est)")
+            stages = {name: mp.alloc_bytes(call) / 16.0 for name, call in STAGES.items()}
         version = mp.version
     nbytes = np.array(log[0] + cyc[0])
     jobs = np.array(log[1] + cyc[1])
@@ -490,6 +561,7 @@ def micropython_costs(config: dict, calls: list, warm: int = 1100, measured: int
         "micropython_bytes_all_arrive_cycle": int(sum(cyc[0][:cycle_ticks])),
         "all_arrive_cycle_steps": int(cycle_ticks),
         "by_job": by_job,
+        "boxed_floats_by_stage": _by_stage(stages, by_job),
         "steps_measured": int(len(nbytes)),
     }
 

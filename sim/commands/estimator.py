@@ -45,6 +45,7 @@ def do_bench_estimator(args: argparse.Namespace) -> None:
     if args.source not in estimation.TRUTH_SOURCES:
         raise UsageError("--source %r unknown; known: %s" % (args.source, ", ".join(sorted(estimation.TRUTH_SOURCES))))
     per_seed = []
+    mekf_seed = []
     first = None
     for seed in seeds:
         log.info("seed %d: truth, sensors, estimator", seed)
@@ -56,6 +57,9 @@ def do_bench_estimator(args: argparse.Namespace) -> None:
         scores = estimation.score(truth, est)
         scores["seed"] = seed
         per_seed.append(scores)
+        if args.compare_attitude:
+            mekf = dict(config, attitude_filter="mekf")
+            mekf_seed.append(estimation.score(truth, estimation.run(mekf, calls, t_ticks)))
         if first is None:
             first = (truth, logs, est, config, calls)
     keys = [k for k in per_seed[0] if k != "seed"]
@@ -65,12 +69,33 @@ def do_bench_estimator(args: argparse.Namespace) -> None:
     if not args.no_micropython:
         log.info("MicroPython: cost of a step")
         result.update(estimation.micropython_costs(first[3], first[4]))
+    if args.compare_attitude:
+        result["attitude_filters"] = _compare(args, result, mekf_seed, first, estimation)
     result["targets"] = TARGETS
     result["meets_targets"] = all(result[k] <= v for k, v in TARGETS.items() if k in result)
     if args.plot:
         plot(args.plot, *first[:3])
         result["plot"] = args.plot
     emit(args, result, _text)
+
+
+def _compare(args, result: dict, mekf_seed: list, first, estimation) -> dict:
+    """The Mahony filter the estimator flies against a multiplicative EKF
+    (``shared/estimator/mekf.py``) in the same estimator: accuracy on the
+    same seeds and, unless --no-micropython, floats a step."""
+    out = {}
+    for name, scores in (("mahony", result["per_seed"]), ("mekf", mekf_seed)):
+        out[name] = {k: float(np.mean([s[k] for s in scores]))
+                     for k in ("attitude_rms_deg", "tilt_rms_deg", "heading_rms_deg")}
+    if not args.no_micropython:
+        out["mahony"]["boxed_floats_per_step"] = result["boxed_floats_per_step"]
+        out["mahony"]["by_job"] = {k: v["boxed_floats"] for k, v in result["by_job"].items()}
+        log.info("MicroPython: cost of a step with the MEKF")
+        costs = estimation.micropython_costs(dict(first[3], attitude_filter="mekf"), first[4])
+        out["mekf"]["boxed_floats_per_step"] = costs["boxed_floats_per_step"]
+        out["mekf"]["by_job"] = {k: v["boxed_floats"] for k, v in costs["by_job"].items()}
+        out["mekf"]["estimated_board_ms_per_step"] = costs["estimated_board_ms_per_step"]
+    return out
 
 
 def _text(r: dict) -> str:
@@ -88,6 +113,14 @@ def _text(r: dict) -> str:
             lines.append("  %-28s %10.4g%s" % (key, r[key], "   (target <= %g)" % target if target else ""))
         lines.append("  boxed floats by step kind: " + ", ".join(
             "%s %g" % (k, v["boxed_floats"]) for k, v in r["by_job"].items()))
+        if r.get("boxed_floats_by_stage"):
+            lines.append("  where the floats go:")
+            for name, n in r["boxed_floats_by_stage"].items():
+                lines.append("    %-74s %5g" % (name, n))
+    for name, f in r.get("attitude_filters", {}).items():
+        lines.append("  attitude filter %-6s attitude %.3g deg (tilt %.3g, heading %.3g)%s" % (
+            name, f["attitude_rms_deg"], f["tilt_rms_deg"], f["heading_rms_deg"],
+            ", %g boxed floats a step" % f["boxed_floats_per_step"] if "boxed_floats_per_step" in f else ""))
     lines.append("  meets targets: %s" % ("yes" if r["meets_targets"] else "NO"))
     if r.get("plot"):
         lines.append("  plot: %s" % r["plot"])
@@ -106,6 +139,7 @@ def plot(path: str, truth, logs, est) -> None:
     from roboray.sim.sensors.sampling import interpolate, interpolate_quaternion
     from roboray.sim.truth import quaternion_to_matrix
 
+    est = estimation.Estimates(*(getattr(est, f)[::4] for f in est.__dataclass_fields__))  # 25 Hz is plenty
     t = est.t
     q_true = interpolate_quaternion(truth.t, truth.quaternion, t)
     R = quaternion_to_matrix(q_true)
@@ -155,8 +189,16 @@ def plot(path: str, truth, logs, est) -> None:
         a.grid(alpha=0.3)
     fig.suptitle("On-board estimator, standard scenario (estimates dashed)")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    # 64 colours are plenty for line plots and keep the file a fifth the size
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=72)
     plt.close(fig)
+    buf.seek(0)
+    Image.open(buf).convert("RGB").quantize(colors=64).save(path, optimize=True)
 
 
 def register(sub, bench) -> None:
@@ -168,5 +210,7 @@ def register(sub, bench) -> None:
     p.add_argument("--source", default="kinematic",
                    help="where the truth comes from (roboray.sim.estimation.TRUTH_SOURCES; default kinematic)")
     p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython cost figures")
+    p.add_argument("--compare-attitude", action="store_true",
+                   help="also run the multiplicative EKF in place of the Mahony filter (accuracy and cost)")
     p.add_argument("--plot", metavar="FILE.png", help="draw estimates against truth for the first seed")
     add_json(p)
