@@ -40,6 +40,14 @@ Step API (``Estimator``; ticks are ``time.ticks_us()`` values, wrapping at
 ``check(t_us)``
     health against the caller's clock (the only way to see a silent IMU).
 
+Promises (tests/test_estimator_*.py): at rest, within 1 deg of the truth
+6 s after a 90 deg attitude error about any axis, and a 1 deg/s gyro bias
+learned to 0.02 deg/s about the horizontal axes and 0.2 deg/s about the
+vertical within 8 s; an outlier pressure, a wrong fix or a disturbed
+magnetometer sample is rejected and counted, and four fixes in a row that
+disagree restart the position on them; a silent sensor drops its health
+bit within its time-out (``health.TIMEOUT_*_US``) plus one IMU step.
+
 Outputs, ``array`` objects made once and rewritten in place:
 ``q`` (4: body -> NED quaternion w, x, y, z), ``rates`` (3: bias-corrected,
 rad/s), ``euler`` (3: roll, pitch, yaw, rad), ``nav`` (6: depth, vertical

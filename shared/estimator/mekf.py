@@ -153,9 +153,10 @@ class Mekf:
         self._scalar(0.0, g * vz, -g * vy, ax + g * vx, self._ra)
         self._scalar(-g * vz, 0.0, g * vx, ay + g * vy, self._ra)
         self._scalar(g * vy, -g * vx, 0.0, az + g * vz, self._ra)
-        e2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]
         if self.fast:
-            if e2 < 3e-8:
+            # settled when the filter itself is sure: attitude variance under (1 deg)^2
+            P = self.P
+            if P[0] + P[7] + P[14] < 3e-4:
                 if self.tilt_settled < 10000:
                     self.tilt_settled += 1
             else:
@@ -182,7 +183,7 @@ class Mekf:
             return 2
         self.rejects = 0
         if self.fast:
-            if -0.0174533 < err < 0.0174533:
+            if self.tilt_settled:
                 if self.heading_settled < 10000:
                     self.heading_settled += 1
             else:
