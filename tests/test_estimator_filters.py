@@ -154,3 +154,28 @@ def test_outputs_exist_before_any_sample_and_after_the_first():
     before = list(est.q)
     est.imu(1000, 1.0, 1.0, 1.0, 0.0, 0.0, -g)
     assert list(est.q) == before
+
+
+def test_reset_starts_the_alignment_again():
+    truth = E.standard_truth(1)
+    p = E.prepare(truth, 1)
+    ns = E.replay_namespace()
+    est = ns["build"](p.config)
+    for tick in p.calls[:1500]:
+        ns["feed"](est, tick)
+    assert est.status[H.STATUS_VALID] == 1 and not est.att.fast
+    est.reset()
+    ns["feed"](est, p.calls[1500])
+    h = est.status[H.STATUS_HEALTH]
+    assert h & H.FAST_ALIGN and not h & (H.ATTITUDE_VALID | H.DEPTH_VALID | H.POSITION_VALID)
+    assert est.status[H.STATUS_VALID] == 0
+    # depth comes back with the next pressure sample, attitude after the alignment
+    for tick in p.calls[1501:1510]:
+        ns["feed"](est, tick)
+    h = est.status[H.STATUS_HEALTH]
+    assert h & H.DEPTH_VALID and not h & H.ATTITUDE_VALID
+    for tick in p.calls[1510:2600]:
+        ns["feed"](est, tick)
+    assert est.status[H.STATUS_VALID] == 1
+    depth_true = np.interp(p.t[2599], truth.t, truth.position_ned[:, 2])
+    assert est.nav[H.NAV_DEPTH] == pytest.approx(depth_true, abs=0.01)

@@ -6,7 +6,7 @@ stated assumptions, in its module) and a ``numpy`` random generator, and
 returns a log of samples with their time stamps:
 
 - ``imu.inertial`` -> ``InertialLog`` (gyro, accelerometer at 208 Hz);
-- ``imu.magnetometer`` -> ``MagLog`` (80 Hz, with hard/soft iron, the
+- ``imu.magnetometer`` -> ``MagLog`` (155 Hz, with hard/soft iron, the
   servos' field, and the calibration an ellipsoid fit would give);
 - ``depth.pressure`` -> ``PressureLog`` (25 Hz);
 - ``position_fix.fixes`` -> ``FixLog`` (1 Hz, delayed, with dropouts).
