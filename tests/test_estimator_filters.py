@@ -170,12 +170,22 @@ def test_reset_starts_the_alignment_again():
     assert h & H.FAST_ALIGN and not h & (H.ATTITUDE_VALID | H.DEPTH_VALID | H.POSITION_VALID)
     assert est.status[H.STATUS_VALID] == 0
     # depth comes back with the next pressure sample, attitude after the alignment
-    for tick in p.calls[1501:1510]:
+    for tick in p.calls[1501:1525]:
         ns["feed"](est, tick)
     h = est.status[H.STATUS_HEALTH]
     assert h & H.DEPTH_VALID and not h & H.ATTITUDE_VALID
-    for tick in p.calls[1510:2600]:
+    for tick in p.calls[1525:2600]:
         ns["feed"](est, tick)
     assert est.status[H.STATUS_VALID] == 1
     depth_true = np.interp(p.t[2599], truth.t, truth.position_ned[:, 2])
     assert est.nav[H.NAV_DEPTH] == pytest.approx(depth_true, abs=0.01)
+
+
+def test_the_estimators_inlined_constants_are_the_health_modules():
+    from roboray.shared.estimator import estimator as module
+
+    for name in ("IMU_OK", "MAG_OK", "DEPTH_OK", "FIX_OK", "ATTITUDE_VALID", "DEPTH_VALID",
+                 "POSITION_VALID", "ACCEL_USED", "SERVOS_MOVING", "FAST_ALIGN"):
+        assert getattr(module, "_" + name) == getattr(H, name), name
+    assert (H.STATUS_HEALTH, H.STATUS_VALID) == (0, 1)
+    assert module._HALF * 2 == module._TMAX + 1 == 1 << 30

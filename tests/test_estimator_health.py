@@ -1,6 +1,7 @@
 """Health: a sensor that stops updating drops its flag within its time-out
-(plus one 10 ms IMU step), the estimate's validity follows its covariance,
-and a silent IMU is seen through ``check()`` with the caller's clock.
+plus 0.12 s (the flags are refreshed by the 10 Hz housekeeping), the
+estimate's validity follows its covariance, and a silent IMU is seen
+through ``check()`` with the caller's clock at once.
 
 Time-outs (``health.TIMEOUT_*_US``): IMU 50 ms, magnetometer and depth
 250 ms, fixes 3 s, each counted from the last usable sample's measurement
@@ -66,9 +67,9 @@ def test_a_silent_sensor_drops_its_flag_within_its_timeout(scenario, kind, flag,
     ticks = [tick[-1][1] for tick in calls[:n]]  # every tick ends with the IMU call
     assert status[stop - 1, 0] & flag
     dropped = next(k for k in range(stop, n) if not status[k, 0] & flag)
-    # not before the time-out, and at most one step after it
+    # not before the time-out, and at most 0.12 s after it
     age_us = ticks_diff(ticks[dropped], last_us)
-    assert timeout_us <= age_us <= timeout_us + 10000
+    assert timeout_us <= age_us <= timeout_us + 120000
     assert all(not s & flag for s in status[dropped:, 0])  # and stays down
 
 

@@ -46,7 +46,7 @@ learned to 0.02 deg/s about the horizontal axes and 0.2 deg/s about the
 vertical within 8 s; an outlier pressure, a wrong fix or a disturbed
 magnetometer sample is rejected and counted, and four fixes in a row that
 disagree restart the position on them; a silent sensor drops its health
-bit within its time-out (``health.TIMEOUT_*_US``) plus one IMU step.
+bit within its time-out (``health.TIMEOUT_*_US``) plus 0.12 s.
 
 Outputs, ``array`` objects made once and rewritten in place:
 ``q`` (4: body -> NED quaternion w, x, y, z), ``rates`` (3: bias-corrected,

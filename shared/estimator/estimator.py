@@ -31,6 +31,21 @@ except ImportError:  # CPython
         return x
 
 _G = 9.80665
+# health bits and status/output slots used in the step code: the values of
+# ``health`` again, as constants the compiler inlines (a test checks they agree)
+_IMU_OK = const(0x001)
+_MAG_OK = const(0x002)
+_DEPTH_OK = const(0x004)
+_FIX_OK = const(0x008)
+_ATTITUDE_VALID = const(0x010)
+_DEPTH_VALID = const(0x020)
+_POSITION_VALID = const(0x040)
+_ACCEL_USED = const(0x080)
+_SERVOS_MOVING = const(0x100)
+_FAST_ALIGN = const(0x200)
+_HALF = const(0x20000000)   # half the tick period
+_TMAX = const(0x3FFFFFFF)
+
 #: ``Estimator.job``: the extra job the last ``imu()`` did.
 JOB_NONE = const(0)
 JOB_FIX = const(1)
@@ -135,6 +150,13 @@ class Estimator:
         self._to_mag = timeouts_us[1]
         self._to_depth = timeouts_us[2]
         self._to_fix = timeouts_us[3]
+        # alive while ((now - last + _HALF) & _TMAX) < timeout + _HALF: the
+        # signed tick difference without a call (a late-stamped sample counts)
+        self._lim_imu = timeouts_us[0] + _HALF
+        self._lim_mag = timeouts_us[1] + _HALF
+        self._lim_depth = timeouts_us[2] + _HALF
+        self._lim_fix = timeouts_us[3] + _HALF
+        self._lim_servo = int(servo_hold_s * 1e6) + _HALF
         self._tilt_var_max = tilt_var_max
         self._depth_var_max = depth_var_max
         self._pos_var_max = position_var_max
@@ -302,7 +324,6 @@ class Estimator:
             vert = self.vert
             vert.predict(dt, R[6] * ax + R[7] * ay + R[8] * az + _G)
             self.hor.predict(t_us, dt, R[2], R[5], R[8], vert.x[1])
-        self._health(t_us)
         self._outputs()
 
     def check(self, t_us):
@@ -393,7 +414,7 @@ class Estimator:
 
     def _housekeeping(self):
         """10 Hz: covariances to now, attitude variance model, quaternion
-        normalisation, descent gain, covariance outputs."""
+        normalisation, descent gain, covariance outputs, health flags."""
         t = self._t_imu
         vert = self.vert
         hor = self.hor
@@ -434,39 +455,43 @@ class Estimator:
         c[_h.COV_EAST] = P[0]
         c[_h.COV_VN] = P[2]
         c[_h.COV_VE] = P[2]
+        self._health(t)
 
     def _health(self, t_us):
         h = 0
-        if self._started and ticks_diff(t_us, self._t_imu) < self._to_imu:
-            h = _h.IMU_OK
-        if self._mag_seen and ticks_diff(t_us, self._t_mag_ok) < self._to_mag:
-            h |= _h.MAG_OK
-        if self._depth_seen and ticks_diff(t_us, self._t_depth_ok) < self._to_depth:
-            h |= _h.DEPTH_OK
-        if self._fix_seen and ticks_diff(t_us, self._t_fix_ok) < self._to_fix:
-            h |= _h.FIX_OK
+        t = t_us + _HALF
+        if self._started and ((t - self._t_imu) & _TMAX) < self._lim_imu:
+            h = _IMU_OK
+        if self._mag_seen and ((t - self._t_mag_ok) & _TMAX) < self._lim_mag:
+            h |= _MAG_OK
+        if self._depth_seen and ((t - self._t_depth_ok) & _TMAX) < self._lim_depth:
+            h |= _DEPTH_OK
+        if self._fix_seen and ((t - self._t_fix_ok) & _TMAX) < self._lim_fix:
+            h |= _FIX_OK
         att = self.att
         if att.accel_used:
-            h |= _h.ACCEL_USED
+            h |= _ACCEL_USED
         if att.fast:
-            h |= _h.FAST_ALIGN
-        if self._servo_seen and ticks_diff(t_us, self._t_servo) < self._servo_hold_us:
-            h |= _h.SERVOS_MOVING
+            h |= _FAST_ALIGN
+        if self._servo_seen and ((t - self._t_servo) & _TMAX) < self._lim_servo:
+            h |= _SERVOS_MOVING
         valid = 0
-        if h & _h.IMU_OK and not att.fast and self._tilt_var < self._tilt_var_max:
-            h |= _h.ATTITUDE_VALID
+        if h & _IMU_OK and not att.fast and self._tilt_var < self._tilt_var_max:
+            h |= _ATTITUDE_VALID
             valid = 1
-        if self.vert.initialised and self.vert.P[0] < self._depth_var_max:
-            h |= _h.DEPTH_VALID
+        vert = self.vert
+        if vert.initialised and vert.P[0] < self._depth_var_max:
+            h |= _DEPTH_VALID
         else:
             valid = 0
-        if self.hor.initialised and self.hor.P[0] < self._pos_var_max:
-            h |= _h.POSITION_VALID
+        hor = self.hor
+        if hor.initialised and hor.P[0] < self._pos_var_max:
+            h |= _POSITION_VALID
         else:
             valid = 0
         s = self.status
-        s[_h.STATUS_HEALTH] = h
-        s[_h.STATUS_VALID] = valid
+        s[0] = h
+        s[1] = valid
 
     def _outputs(self):
         att = self.att

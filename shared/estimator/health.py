@@ -9,9 +9,11 @@
 - ``status[STATUS_*_REJECTS]``: samples the gates rejected so far.
 
 A sensor's flag is set while its last usable sample is younger than its
-time-out (``TIMEOUT_*_US``); a flag therefore drops at most one IMU step
-(10 ms) after the time-out expires, or at once when the caller's own clock
-is given to ``Estimator.check()`` (the only way to notice a silent IMU).
+time-out (``TIMEOUT_*_US``). The flags are evaluated by the estimator's
+10 Hz housekeeping, so one drops at most 0.12 s after its time-out expires
+(the housekeeping yields up to two steps to a pending fix or depth sample),
+or at once when the caller's own clock is given to ``Estimator.check()``
+(the only way to notice a silent IMU).
 """
 
 try:
