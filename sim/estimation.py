@@ -60,13 +60,61 @@ class Scenario:
 
 STANDARD = Scenario()
 
+def dynamics_descent(seed: int, flight_s: float = FLIGHT_S, dt: float = 0.005) -> Truth:
+    """The standard flight from the dynamics model (``roboray.sim.dynamics``):
+    released at rest just under the surface with a random heading and a
+    tilt of up to 3 deg, wings moved every 6-12 s, smoothly over 0.6-1.2 s
+    as the kinematic profile does (through the servo model), to a random
+    configuration of the kind a controller flies: a mirror plane
+    through wings 1-3 or 2-4 (s1, s3 and s2 = s4 each 0-60 deg) plus up to
+    2 deg of asymmetry on every wing (servo trim), so every change sets off
+    feathering and a new glide that turns slowly. (Arbitrary asymmetric
+    configurations spiral at up to 1 rad/s; a controller does not fly them.) Referenced to the centre of
+    buoyancy with flat wings, the point the estimator reports; then the
+    ``HOLD_S`` still segment is prepended."""
+    from roboray.sim.dynamics import Model, quat_from_axis_angle
+    from roboray.sim.simulate import simulate
+
+    rng = np.random.default_rng([seed, 7])
+    model = Model(None)
+    vehicle = model.vehicles[0]
+    cb = vehicle.centre_of_buoyancy(np.zeros(4))
+    heading = rng.uniform(-np.pi, np.pi)
+    tilt_axis = np.array([*rng.normal(size=2), 0.0])
+    q_yaw = quat_from_axis_angle([0, 0, 1], heading)
+    q_tilt = quat_from_axis_angle(tilt_axis, np.radians(rng.uniform(0.0, 3.0)))
+    w, x, y, z = q_yaw
+    a, b, c, d = q_tilt
+    attitude = [w * a - x * b - y * c - z * d, w * b + x * a + y * d - z * c,
+                w * c - x * d + y * a + z * b, w * d + x * c - y * b + z * a]
+    x0 = model.state(position=(0.0, 0.0, PROFILE.start_depth - cb[2]), attitude=attitude)
+    plan_t, plan_w, plan_move = [0.0], [np.zeros(4)], [1.0]
+    while plan_t[-1] < flight_s:
+        plan_t.append(plan_t[-1] + rng.uniform(6.0, 12.0))
+        s1, s3, s24 = rng.uniform(0.0, 60.0, size=3)
+        base = np.roll([s1, s24, s3, s24], int(rng.integers(2)))
+        plan_w.append(np.radians(np.clip(base + rng.uniform(-2.0, 2.0, size=4), 0.0, 90.0)))
+        plan_move.append(rng.uniform(0.6, 1.2))
+
+    def wings(t, _x):
+        k = int(np.searchsorted(plan_t, t, side="right")) - 1
+        if k == 0:
+            return plan_w[0][None, :]
+        u = min(1.0, (t - plan_t[k]) / plan_move[k])
+        return (plan_w[k - 1] + u * (plan_w[k] - plan_w[k - 1]))[None, :]
+
+    run = simulate(model, x0, flight_s, dt=dt, controller=wings, control_period=dt)
+    return with_hold(run.truth(0, reference=cb))
+
+
 #: Where a truth can come from: name -> (seed -> Truth).
 TRUTH_SOURCES: dict[str, Callable[[int], Truth]] = {
+    "dynamics": dynamics_descent,
     "kinematic": lambda seed: trajectory.descent(seed, PROFILE),
 }
 
 
-def standard_truth(seed: int, source: str = "kinematic") -> Truth:
+def standard_truth(seed: int, source: str = "dynamics") -> Truth:
     """The standard scenario's truth for ``seed``."""
     if source not in TRUTH_SOURCES:
         raise ValueError("truth source %r unknown; known: %s" % (source, ", ".join(sorted(TRUTH_SOURCES))))
@@ -94,6 +142,7 @@ def with_hold(flight: Truth, hold_s: float = HOLD_S) -> Truth:
         depth_sensor=pad(flight.depth_sensor), wings=pad(flight.wings), wing_rates=pad(flight.wing_rates, True),
         imu_position_body=flight.imu_position_body,
         water_velocity_ned=None if flight.water_velocity_ned is None else pad(flight.water_velocity_ned),
+        port_position_body=flight.port_position_body,
     )
 
 
@@ -135,7 +184,8 @@ def estimator_config(logs: SensorLogs, truth: Truth, scenario: Scenario = STANDA
         "horizontal": {"fix_var": float(scenario.tracker.noise_m ** 2 + 1e-5)},
         "estimator": {
             "imu_position": [float(x) for x in truth.imu_position_body],
-            "port_position": [float(x) for x in PORT_POSITION],
+            "port_position": [float(x) for x in (PORT_POSITION if truth.port_position_body is None
+                                                 else truth.port_position_body)],
             "fluid_density": float(scenario.water.density),
         },
         "mag_offset": [float(x) for x in logs.mag.offset],
@@ -358,7 +408,7 @@ def prepare(truth: Truth, seed: int, scenario: Scenario = STANDARD) -> Prepared:
     return Prepared(logs=logs, t=t_ticks, calls=calls, config=estimator_config(logs, truth, scenario))
 
 
-def run_seed(seed: int, source: str = "kinematic", scenario: Scenario = STANDARD) -> tuple[Truth, Estimates, dict]:
+def run_seed(seed: int, source: str = "dynamics", scenario: Scenario = STANDARD) -> tuple[Truth, Estimates, dict]:
     """Truth, estimates and scores of one seed of the standard scenario."""
     truth = standard_truth(seed, source)
     p = prepare(truth, seed, scenario)
@@ -427,7 +477,7 @@ def __vertical_predict():
 
 def __horizontal_predict():
     R = __e.att.R
-    __e.hor.predict(__e._t_imu, 0.01, R[2], R[5], R[8], __e.vert.x[1])
+    __e.hor.predict(__e._t_imu, 0.01, R, __e.vert.x[1])
 
 def __outputs():
     __e._outputs()
@@ -569,12 +619,14 @@ def micropython_costs(config: dict, calls: list, warm: int = 1100, measured: int
 def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
                             taus_s=(0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8), since: float = HOLD_S + 3.0) -> dict:
     """Fit the descent model's table (``shared/estimator/descent_model.py``)
-    to truths by least squares. For each lag ``tau`` in ``taus_s``: the glide
+    to truths by least squares. For each lag ``tau`` in ``taus_s``: the tilt
     gain, linear in the mean fold (``K = a + b fold``: the scenario's wings
-    only span 0-60 deg, too little to fit the rows independently), that best
-    explains the horizontal velocity as lag_tau(-K w (r02, r12) / r22) plus
-    a constant per truth and axis (the current). Returns the best as
-    ``{"fold_deg", "glide_gain" (K at folds_deg), "tau_s", "residual_mps"}``."""
+    only span 0-60 deg, too little to fit the rows independently), and the
+    differential-fold gain ``D`` that best explain the horizontal velocity as
+    lag_tau(-K w (r02, r12) / r22 + w R (D d13, D d24, 0)), d13 = (s1 - s3)
+    / 90 deg, d24 = (s2 - s4) / 90 deg, plus a constant per truth and axis
+    (the current). Returns the best as ``{"fold_deg", "glide_gain" (K at
+    folds_deg), "diff_gain", "tau_s", "residual_mps"}``."""
     best: dict = {}
     for tau in taus_s:
         blocks, rhs = [], []
@@ -585,9 +637,12 @@ def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
             fold = np.degrees(tr.wings.mean(axis=1))
             dt = float(np.median(np.diff(tr.t)))
             keep = tr.t >= since
+            d13 = (tr.wings[:, 0] - tr.wings[:, 2]) / (np.pi / 2)
+            d24 = (tr.wings[:, 1] - tr.wings[:, 3]) / (np.pi / 2)
             for axis in (0, 1):
                 base = -w * R[:, axis, 2] / R[:, 2, 2]
-                x = np.stack([base, base * fold], axis=1)
+                diff = w * (d13 * R[:, axis, 0] + d24 * R[:, axis, 1])
+                x = np.stack([base, base * fold, diff], axis=1)
                 if tau > 0:
                     a = np.exp(-dt / tau)
                     x = signal.lfilter([1.0 - a], [1.0, -a], x, axis=0)
@@ -602,7 +657,7 @@ def calibrate_descent_model(truths: list[Truth], folds_deg=(0.0, 45.0, 90.0),
         if not best or residual < best["residual_mps"]:
             best = {"fold_deg": [float(f) for f in folds_deg],
                     "glide_gain": [float(sol[0] + sol[1] * f) for f in folds_deg],
-                    "tau_s": float(tau), "residual_mps": residual}
+                    "diff_gain": float(sol[2]), "tau_s": float(tau), "residual_mps": residual}
     return best
 
 

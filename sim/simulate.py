@@ -63,7 +63,8 @@ class Run:
     specific_force_imu: np.ndarray  #: (K, N, 3) m/s^2, body frame, mean over the last step
     depth_sensor: np.ndarray        #: (K, N) m
     landed_at: np.ndarray           #: (N,) s, first touch of the bottom (nan: never)
-    imu_position: np.ndarray        #: (N, 3)
+    imu_position: np.ndarray        #: (N, 3) m from O
+    port_position: np.ndarray       #: (N, 3) m from O, the pressure port
     wall_time_s: float = 0.0
     integrator: str = "rk4"
     dt: float = 0.01
@@ -81,20 +82,29 @@ class Run:
             v = v + self.water_velocity
         return v
 
-    def truth(self, i: int = 0) -> Truth:
-        """Vehicle i's run as a ``Truth`` for the sensor models."""
+    def truth(self, i: int = 0, reference=None) -> Truth:
+        """Vehicle i's run as a ``Truth`` for the sensor models. Positions and
+        velocities are of the plate centre O, or of ``reference`` (a body
+        point, m from O; e.g. the centre of buoyancy, which the estimator
+        reports), and the IMU and pressure port are given from that point."""
+        ref = np.zeros(3) if reference is None else np.asarray(reference, float)
+        rot = quat_to_rot(self.x[:, i, QUAT])
+        position = self.x[:, i, POS] + np.einsum("kij,j->ki", rot, ref)
+        spin = np.cross(self.nu[:, i, 3:], ref)
+        velocity = self.velocity_ned()[:, i] + np.einsum("kij,kj->ki", rot, spin)
         return Truth(
             t=self.t.copy(),
-            position_ned=self.x[:, i, POS].copy(),
-            velocity_ned=self.velocity_ned()[:, i].copy(),
+            position_ned=position,
+            velocity_ned=velocity,
             quaternion=self.x[:, i, QUAT].copy(),
             omega_body=self.nu[:, i, 3:].copy(),
             specific_force_imu=self.specific_force_imu[:, i].copy(),
             depth_sensor=self.depth_sensor[:, i].copy(),
             wings=self.x[:, i, WINGS].copy(),
             wing_rates=self.wing_rates[:, i].copy(),
-            imu_position_body=self.imu_position[i].copy(),
+            imu_position_body=self.imu_position[i] - ref,
             water_velocity_ned=None if self.water_velocity is None else self.water_velocity[:, i].copy(),
+            port_position_body=self.port_position[i] - ref,
         )
 
 
@@ -185,5 +195,6 @@ def simulate(model: Model, x0: np.ndarray, duration: float, dt: float = 0.01,
         water = model.current.at(xs[:k_total, :, 2])
     return Run(t=np.arange(k_total) * dt, x=xs[:k_total], nu=nus[:k_total], wing_rates=sds[:k_total],
                command=cmds[:k_total], specific_force_imu=f_imu, depth_sensor=depth[:k_total],
-               landed_at=landed, imu_position=np.broadcast_to(model.imu, (n, 3)).copy(), wall_time_s=wall,
+               landed_at=landed, imu_position=np.broadcast_to(model.imu, (n, 3)).copy(),
+               port_position=np.broadcast_to(model.port, (n, 3)).copy(), wall_time_s=wall,
                integrator=integrator, dt=dt, water_velocity=water)

@@ -23,16 +23,17 @@ class Truth:
     """A trajectory sampled at times ``t``; every array's first axis is time."""
 
     t: np.ndarray                   #: (N,) s
-    position_ned: np.ndarray        #: (N, 3) m, body origin O (centre of the centre plate)
-    velocity_ned: np.ndarray        #: (N, 3) m/s, of O, over ground (current included)
+    position_ned: np.ndarray        #: (N, 3) m, of the reference point (the dynamics: plate centre O, or a point given)
+    velocity_ned: np.ndarray        #: (N, 3) m/s, of the reference point, over ground (current included)
     quaternion: np.ndarray          #: (N, 4) [w, x, y, z], body -> NED
     omega_body: np.ndarray          #: (N, 3) rad/s, body rates
     specific_force_imu: np.ndarray  #: (N, 3) m/s^2, body frame, at the IMU: a_imu - g
     depth_sensor: np.ndarray        #: (N,) m, depth of the pressure port
     wings: np.ndarray               #: (N, 4) rad, wing deflections s_1..s_4
     wing_rates: np.ndarray          #: (N, 4) rad/s
-    imu_position_body: np.ndarray = field(default_factory=lambda: np.zeros(3))  #: (3,) m from the CB
+    imu_position_body: np.ndarray = field(default_factory=lambda: np.zeros(3))  #: (3,) m from the reference point
     water_velocity_ned: np.ndarray | None = None  #: (N, 3) m/s current at the vehicle, None = still water
+    port_position_body: np.ndarray | None = None  #: (3,) m, pressure port from the reference point
 
     def __post_init__(self) -> None:
         n = len(self.t)

@@ -86,7 +86,7 @@ def test_a_delayed_fix_is_applied_at_its_measurement_time():
     pending = []
     for k in range(3000):
         t += 10000
-        h.predict(t, 0.01, 0.0, 0.0, 1.0, 0.3)
+        h.predict(t, 0.01, (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), 0.3)
         if k % 100 == 0:
             pending.append((t, 0.1 * t * 1e-6))
         if pending and ticks_diff(t, pending[0][0]) >= 500000:
@@ -111,10 +111,28 @@ def test_descent_model_table_interpolates_and_holds():
 
 
 def test_descent_model_table_is_what_the_scenario_calibrates():
-    fitted = E.calibrate_descent_model([E.standard_truth(s) for s in (0, 1)], taus_s=(descent_model.TAU_S,))
+    fitted = E.calibrate_descent_model([E.standard_truth(s) for s in range(10)], taus_s=(descent_model.TAU_S,))
     assert fitted["tau_s"] == descent_model.TAU_S
-    assert np.allclose(fitted["glide_gain"], descent_model.GLIDE_GAIN, rtol=0.05)
-    assert fitted["residual_mps"] < 0.005
+    assert np.allclose(fitted["glide_gain"], descent_model.GLIDE_GAIN, rtol=0.01, atol=0.002)
+    assert fitted["diff_gain"] == pytest.approx(descent_model.DIFF_GAIN, abs=0.002)
+    assert fitted["residual_mps"] < 0.004
+
+
+def test_differential_glide_matches_the_trims():
+    """The descent model's differential term against the dynamics model's
+    steady glides: (0, 45, 90, 45) glides towards wing 3 at 0.345 of its
+    descent speed, (0, 0, 90, 90) towards the folded pair."""
+    from roboray.sim.analysis.trim import find_trims
+    from roboray.sim.dynamics import Model
+
+    model = Model(None)
+    for wings_deg in ((0, 45, 90, 45), (0, 0, 90, 90)):
+        wings = np.radians(wings_deg)
+        trim = find_trims(model, wings, settle_s=20.0)[0]
+        gx, gy = descent_model.glide_vector(*wings)
+        h = trim.horizontal_velocity_body / trim.descent_speed
+        assert np.degrees(np.arctan2(gy, gx)) == pytest.approx(np.degrees(np.arctan2(h[1], h[0])), abs=1.0)
+        assert np.hypot(gx, gy) == pytest.approx(np.hypot(h[0], h[1]), rel=0.25)
 
 
 @pytest.mark.parametrize("kwargs,what", [

@@ -78,7 +78,9 @@ def test_without_pressure_depth_stops_being_valid_as_its_variance_grows(scenario
     stop = int(STOP_S * 100)
     calls, _ = _silence(p.calls, "p", stop)
     est, status, cov = _run(p, calls, stop + 1500)
-    depth_var = cov[stop:, H.COV_DEPTH]
+    # a sample measured before the silence may still be fused a few ticks
+    # later (jobs are levelled over steps): monotone from 0.1 s on
+    depth_var = cov[stop + 10:, H.COV_DEPTH]
     assert np.all(np.diff(depth_var) >= 0.0)
     invalid = next(k for k in range(stop, len(status)) if not status[k, 0] & H.DEPTH_VALID)
     assert status[invalid, 1] == 0  # and so the estimate as a whole

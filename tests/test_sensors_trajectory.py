@@ -89,5 +89,5 @@ def test_with_hold_prepends_a_still_segment():
 
 
 def test_an_unknown_truth_source_is_refused():
-    with pytest.raises(ValueError, match="truth source 'dynamics' unknown"):
-        E.standard_truth(0, source="dynamics")
+    with pytest.raises(ValueError, match="truth source 'wind-tunnel' unknown; known: dynamics, kinematic"):
+        E.standard_truth(0, source="wind-tunnel")

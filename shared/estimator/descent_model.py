@@ -1,38 +1,41 @@
 """Dead-reckoning descent model: how fast the vehicle glides sideways.
 
-A tilted plate falling through water glides towards its lower edge (the
-thesis's feathering, sec. 5.1): the water's normal force on the plate leans
-with it. The model keeps only that::
+Two causes, from the dynamics model (``roboray.sim.analysis.trim``):
 
-    v_ss = K(fold) * w * tan(tilt) * (unit vector towards the lower edge)
-         = -K(fold) * w * (r02, r12) / r22                 (north, east)
+- **Differential folding.** Folding one side more than the other makes the
+  vehicle glide towards the folded side: in body axes the steady horizontal
+  velocity is ``w * DIFF_GAIN * ((s1 - s3), (s2 - s4)) / 90 deg`` (wing 1
+  on +x_c, wing 2 on +y_c). From the trims: (0, 45, 90, 45) glides at 0.345
+  of its descent speed towards wing 3, (0, 0, 90, 90) at 0.488 towards the
+  folded pair (0.345 along each axis), (0, 0, 90, 0) at 0.293.
+- **Tilt** (the thesis's feathering, sec. 5.1): a tilted plate glides
+  towards an edge, ``-K(fold) * w * (r02, r12) / r22`` in NED, with
+  ``(r02, r12, r22)`` the body z axis in NED.
 
-``w``: descent speed (m/s, from the depth filter); ``(r02, r12, r22)``: the
-body z axis in NED (third column of the body -> NED rotation), whose
-horizontal part leans away from the lower edge; ``fold``: mean of the four
-wing angles, 0 (flat) to 90 deg. The horizontal velocity follows ``v_ss``
-through a first-order lag of ``TAU_S`` (added mass keeps the vehicle from
-turning its velocity at once). What the model misses (water current, gain
+``w``: descent speed (m/s, from the depth filter); ``fold``: mean of the
+four wing angles, degrees. The horizontal velocity follows the sum through a
+first-order lag of ``TAU_S``. What the model misses (water current, gain
 error) the horizontal filter estimates as a slowly varying velocity bias.
 
-The parameters are this table, and only this table. Calibrated by a least
-squares fit of the standard scenario's truth (``roboray.sim.estimation.
-calibrate_descent_model``, seeds 0-9 of the kinematic source, K linear in
-the fold: residual 2.2 mm/s; without the lag the best fit leaves 17 mm/s;
-the scenario's wings reach 60 deg, so the 90 deg row is extrapolated); to
-recalibrate from the dynamics
-model's trims, fit ``K`` at each fold from steady glides (``K = v_h r22 /
-(w |(r02, r12)|)``) and ``TAU_S`` from the velocity's response to a tilt
-step, and write them here. ``K`` may come out negative if the vehicle glides
-towards its upper edge.
+The parameters are this table, and only this table, fitted by least
+squares to the standard scenario's truth from the dynamics model
+(``roboray.sim.estimation.calibrate_descent_model``, seeds 0-9 of the
+``dynamics`` source): residual 2.7 mm/s, against 13.7 mm/s for the tilt
+term alone with wings stepped at once. The fitted D = 0.422 is close to
+the trims' 0.345 (the fit also sees the glide of moving and tilted wings);
+no lag fits best: the added mass turns the velocity within the 10 ms step. K comes out
+negative with flat wings: during feathering the vehicle swings towards its
+upper edge, the tilt following the velocity rather than causing it.
 """
 
 #: Mean wing fold at each row, degrees (increasing).
 FOLD_DEG = (0.0, 45.0, 90.0)
 #: Glide gain K at each row: horizontal speed per (descent speed x tan tilt).
-GLIDE_GAIN = (0.947, 0.796, 0.646)
+GLIDE_GAIN = (-2.462, -1.069, 0.323)
+#: Body-frame glide per unit descent speed per 90 deg of differential fold.
+DIFF_GAIN = 0.422
 #: Lag of the horizontal velocity behind v_ss, s (0: no lag).
-TAU_S = 0.5
+TAU_S = 0.0
 
 
 def glide_gain(fold_deg):
@@ -47,3 +50,10 @@ def glide_gain(fold_deg):
             g0 = GLIDE_GAIN[i - 1]
             return g0 + (GLIDE_GAIN[i] - g0) * (fold_deg - f0) / (f1 - f0)
     return GLIDE_GAIN[n - 1]
+
+
+def glide_vector(s1, s2, s3, s4):
+    """Body-frame (x, y) glide per unit descent speed from differential
+    folding, wing angles in rad: DIFF_GAIN * (s1 - s3, s2 - s4) / (pi / 2)."""
+    k = DIFF_GAIN * 0.6366197723675814  # 1 / (pi / 2)
+    return k * (s1 - s3), k * (s2 - s4)

@@ -19,7 +19,7 @@ from array import array
 
 from roboray.shared.estimator import health as _h
 from roboray.shared.estimator.attitude import HEADING_REJECTED_INNOVATION, HEADING_USED, Attitude
-from roboray.shared.estimator.descent_model import TAU_S, glide_gain
+from roboray.shared.estimator.descent_model import TAU_S, glide_gain, glide_vector
 from roboray.shared.estimator.horizontal import FIX_REJECTED, FIX_TOO_OLD, Horizontal
 from roboray.shared.estimator.ticks import ticks_diff
 from roboray.shared.estimator.vertical import Vertical
@@ -323,7 +323,7 @@ class Estimator:
             R = att.R
             vert = self.vert
             vert.predict(dt, R[6] * ax + R[7] * ay + R[8] * az + _G)
-            self.hor.predict(t_us, dt, R[2], R[5], R[8], vert.x[1])
+            self.hor.predict(t_us, dt, R, vert.x[1])
         self._outputs()
 
     def check(self, t_us):
@@ -426,7 +426,8 @@ class Estimator:
         if self._wings_changed:
             self._wings_changed = False
             w = self._wings
-            hor.set_gain(glide_gain((w[0] + w[1] + w[2] + w[3]) * _QUARTER_DEG_PER_RAD))
+            gx, gy = glide_vector(w[0], w[1], w[2], w[3])
+            hor.set_gain(glide_gain((w[0] + w[1] + w[2] + w[3]) * _QUARTER_DEG_PER_RAD), gx, gy)
         # first-order model of the Mahony loops' errors over one period:
         # var <- a var + b, from d var/dt = q + k^2 r - 2 k var
         if att.accel_used:

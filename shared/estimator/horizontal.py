@@ -86,24 +86,31 @@ class Horizontal:
         #: Sum of the corrections applied so far (north, east), m.
         self._s = [0.0, 0.0]
 
-    def set_gain(self, glide_gain):
-        """Glide gain K of the descent model for the current wings."""
+    def set_gain(self, glide_gain, glide_x=0.0, glide_y=0.0):
+        """Descent model for the current wings: tilt gain K and the body-frame
+        glide (x, y) per unit descent speed from differential folding."""
         self._mk = -glide_gain
+        self._gx = glide_x
+        self._gy = glide_y
 
-    def predict(self, t_us, dt, r02, r12, r22, w):
-        """Advance by ``dt`` s with the body z axis in NED ``(r02, r12, r22)``
-        and the descent speed ``w`` (m/s), and log the position at ``t_us``."""
+    def predict(self, t_us, dt, R, w):
+        """Advance by ``dt`` s with the body -> NED rotation ``R`` (9, row
+        major) and the descent speed ``w`` (m/s), and log the position at
+        ``t_us``."""
         x = self.x
+        r22 = R[8]
         if r22 < 0.17:  # past 80 deg of tilt the glide model means nothing
             r22 = 0.17
         g = w * self._mk / r22
+        gx = w * self._gx
+        gy = w * self._gy
         a = dt * self._inv_tau
         if a > 1.0 or a <= 0.0:
             a = 1.0
         mn = x[4]
         me = x[5]
-        mn = mn + (g * r02 - mn) * a
-        me = me + (g * r12 - me) * a
+        mn = mn + (g * R[2] + gx * R[0] + gy * R[1] - mn) * a
+        me = me + (g * R[5] + gx * R[3] + gy * R[4] - me) * a
         x[4] = mn
         x[5] = me
         v = self.v
