@@ -485,11 +485,12 @@ def record(v, x, cmd, T, S, sd, nu, out3):
 
 
 @njit(parallel=True, **_JIT)
-def advance(x, cmd, dt, steps, T, xs, sds, nus, vimu, depth):
-    """``steps`` RK4 steps of every vehicle with commands held, recording the
-    state, wing rates, velocities, IMU NED velocity and sensor depth after
-    each step into xs[k], sds[k], nus[k], vimu[k], depth[k] (k = 1..steps;
-    index 0 must hold the start). x is left at the final state."""
+def advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth):
+    """``rows * every`` RK4 steps of every vehicle with commands held,
+    recording every ``every``-th step the state, wing rates, velocities, IMU
+    NED velocity and sensor depth into xs[k], sds[k], nus[k], vimu[k],
+    depth[k] (k = 1..rows; index 0 must hold the start). x is left at the
+    final state."""
     n = x.shape[0]
     shared = T[0].shape[0] == 1
     for m in prange(n):
@@ -497,12 +498,17 @@ def advance(x, cmd, dt, steps, T, xs, sds, nus, vimu, depth):
         S = _scratch()
         ks = np.empty((7, 17))
         out3 = np.empty((2, 3))
-        for k in range(1, steps + 1):
-            rk4_one(v, xs[k - 1, m], cmd[m], dt, T, S, ks, xs[k, m])
-            record(v, xs[k, m], cmd[m], T, S, sds[k, m], nus[k, m], out3)
+        cur = xs[0, m].copy()
+        nxt = np.empty(17)
+        for k in range(1, rows + 1):
+            for _ in range(every):
+                rk4_one(v, cur, cmd[m], dt, T, S, ks, nxt)
+                cur[:] = nxt
+            xs[k, m, :] = cur
+            record(v, cur, cmd[m], T, S, sds[k, m], nus[k, m], out3)
             vimu[k, m, :] = out3[0]
             depth[k, m] = out3[1, 0]
-        x[m, :] = xs[steps, m]
+        x[m, :] = cur
 
 
 @njit(**_JIT)

@@ -111,14 +111,18 @@ class Run:
 def simulate(model: Model, x0: np.ndarray, duration: float, dt: float = 0.01,
              controller: Optional[Controller] = None, command: Optional[np.ndarray] = None,
              control_period: Optional[float] = None, integrator: str = "rk4",
-             stop_when_landed: bool = False, rtol: float = 1e-11, atol: float = 1e-13) -> Run:
+             stop_when_landed: bool = False, record_every: int = 1,
+             rtol: float = 1e-11, atol: float = 1e-13) -> Run:
     """Integrate N vehicles from x0 (N, 17) for ``duration`` seconds.
 
     Wing commands come from ``controller(t, x) -> (N, 4)`` called every
     ``control_period`` (default: every step) and held in between, or are the
     constant ``command`` (default: hold the initial wing angles). With a
     bottom in the model and ``stop_when_landed``, the run ends when every
-    vehicle has touched it.
+    vehicle has touched it. ``record_every`` records one step in so many
+    (a batch of thousands need not keep every 10 ms); the specific force is
+    then the mean over the recorded interval, and the controller's period
+    must be a whole number of recorded intervals.
     """
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError("dt must be a positive number of seconds, got %r" % dt)
@@ -126,75 +130,83 @@ def simulate(model: Model, x0: np.ndarray, duration: float, dt: float = 0.01,
         raise ValueError("duration must be a non-negative number of seconds, got %r" % duration)
     if integrator not in ("rk4", "dop853"):
         raise ValueError("integrator must be 'rk4' or 'dop853', got %r" % integrator)
+    if int(record_every) != record_every or record_every < 1:
+        raise ValueError("record_every must be a whole number of steps >= 1, got %r" % record_every)
     x0 = np.asarray(x0, dtype=float)
     if x0.shape != (model.n, STATE_SIZE):
         raise ValueError("x0 must have shape (%d, %d), got %s" % (model.n, STATE_SIZE, x0.shape))
     n = model.n
-    steps = int(round(duration / dt))
-    every = max(1, int(round(control_period / dt))) if control_period is not None else 1
-    if controller is None:
-        # Without a controller nothing changes between steps: run in chunks
-        # only to check for landing now and then.
-        every = 200 if model.bottom is not None else max(steps, 1)
-    xs = np.empty((steps + 1, n, STATE_SIZE))
-    sds = np.empty((steps + 1, n, 4))
-    nus = np.empty((steps + 1, n, 6))
-    vimu = np.empty((steps + 1, n, 3))
-    depth = np.empty((steps + 1, n))
-    cmds = np.empty((steps + 1, n, 4))
+    r = int(record_every)
+    rows = int(round(duration / dt)) // r
+    step_r = r * dt   # time between records
+    if controller is not None:
+        ctl = max(1, int(round((control_period if control_period is not None else dt) / dt)))
+        if ctl % r:
+            raise ValueError("the control period (%d steps) must be a multiple of record_every (%d)" % (ctl, r))
+        every = ctl // r
+    else:
+        # Nothing changes between steps: run in chunks only to check for landing now and then.
+        every = max(1, 200 // r) if model.bottom is not None else max(rows, 1)
+    xs = np.empty((rows + 1, n, STATE_SIZE))
+    sds = np.empty((rows + 1, n, 4))
+    nus = np.empty((rows + 1, n, 6))
+    vimu = np.empty((rows + 1, n, 3))
+    depth = np.empty((rows + 1, n))
+    cmds = np.empty((rows + 1, n, 4))
     landed = np.full(n, np.nan)
     xs[0] = x0
     cmd = x0[:, WINGS].copy() if command is None else np.broadcast_to(np.asarray(command, float), (n, 4)).copy()
+    cmd = np.ascontiguousarray(cmd)
     start = time.perf_counter()
     k = 0
-    end = steps
+    end = rows
     while True:
-        t = k * dt
+        t = k * step_r
         if controller is not None and k % every == 0:
             cmd = np.ascontiguousarray(np.asarray(controller(t, xs[k]), dtype=float).reshape(n, 4))
         cmds[k] = cmd
         kernels.record_all(xs[k], cmd, model.T, sds[k], nus[k], vimu[k], depth[k])
         if k == 0 and model.bottom is not None:
             landed[model.touching_bottom(xs[0])] = 0.0
-        if k >= steps:
+        if k >= rows:
             break
-        chunk = min(every - k % every, steps - k)
+        chunk = min(every - k % every, rows - k)
         if integrator == "rk4":
             x = xs[k].copy()
-            kernels.advance(x, cmd, float(dt), chunk, model.T, xs[k:k + chunk + 1], sds[k:k + chunk + 1],
+            kernels.advance(x, cmd, float(dt), chunk, r, model.T, xs[k:k + chunk + 1], sds[k:k + chunk + 1],
                             nus[k:k + chunk + 1], vimu[k:k + chunk + 1], depth[k:k + chunk + 1])
         else:
             for j in range(chunk):
-                xs[k + j + 1] = reference_segment(model, xs[k + j], cmd, dt, rtol, atol)
+                xs[k + j + 1] = reference_segment(model, xs[k + j], cmd, step_r, rtol, atol)
                 kernels.record_all(xs[k + j + 1], cmd, model.T, sds[k + j + 1], nus[k + j + 1],
                                    vimu[k + j + 1], depth[k + j + 1])
         cmds[k + 1:k + chunk + 1] = cmd
         if model.bottom is not None:
             for j in range(k + 1, k + chunk + 1):
                 new = np.isnan(landed) & model.touching_bottom(xs[j])
-                landed[new] = j * dt
+                landed[new] = j * step_r
             if stop_when_landed and not np.isnan(landed).any():
-                end = int(round(np.nanmax(landed) / dt))
+                end = int(round(np.nanmax(landed) / step_r))
                 k = end
                 break
         k += chunk
     end = min(end, k)
     wall = time.perf_counter() - start
     k_total = end + 1
-    rot = quat_to_rot(xs[:k_total].reshape(-1, 4 + 13)[:, QUAT]).reshape(k_total, n, 3, 3)
-    # An accelerometer averaging over each step reads the change of the IMU's
-    # NED velocity less gravity; at the start, the instantaneous value. (An
-    # instantaneous formula would miss the impulse of a wing-rate jump.)
+    rot = quat_to_rot(xs[:k_total].reshape(-1, STATE_SIZE)[:, QUAT]).reshape(k_total, n, 3, 3)
+    # An accelerometer averaging over each interval reads the change of the
+    # IMU's NED velocity less gravity; at the start, the instantaneous value.
+    # (An instantaneous formula would miss the impulse of a wing-rate jump.)
     f_imu = np.empty((k_total, n, 3))
     f_imu[0] = model.specific_force(xs[0], cmds[0], model.imu)
     if k_total > 1:
-        acc = (vimu[1:k_total] - vimu[:k_total - 1]) / dt - GRAVITY_NED
+        acc = (vimu[1:k_total] - vimu[:k_total - 1]) / step_r - GRAVITY_NED
         f_imu[1:] = np.einsum("knji,knj->kni", rot[1:], acc)
     water = None
     if model.current is not None:
         water = model.current.at(xs[:k_total, :, 2])
-    return Run(t=np.arange(k_total) * dt, x=xs[:k_total], nu=nus[:k_total], wing_rates=sds[:k_total],
+    return Run(t=np.arange(k_total) * step_r, x=xs[:k_total], nu=nus[:k_total], wing_rates=sds[:k_total],
                command=cmds[:k_total], specific_force_imu=f_imu, depth_sensor=depth[:k_total],
                landed_at=landed, imu_position=np.broadcast_to(model.imu, (n, 3)).copy(),
                port_position=np.broadcast_to(model.port, (n, 3)).copy(), wall_time_s=wall,
-               integrator=integrator, dt=dt, water_velocity=water)
+               integrator=integrator, dt=step_r, water_velocity=water)

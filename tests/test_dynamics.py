@@ -256,3 +256,22 @@ def test_bad_inputs_name_the_problem(model):
         simulate(model, model.state(), 1.0, dt=0)
     with pytest.raises(ValueError, match=r"x0 must have shape \(1, 17\)"):
         simulate(model, np.zeros((2, 17)), 1.0)
+
+
+def test_recording_less_often_changes_nothing_but_the_samples(model):
+    x0 = model.state(attitude=quat_from_axis_angle([0, 1, 0], 0.2), velocity=(0, 0, 0.3),
+                     wings=np.radians([10, 40, 70, 20]))
+    every = simulate(model, x0, 2.0, dt=0.01)
+    sparse = simulate(model, x0, 2.0, dt=0.01, record_every=10)
+    assert np.allclose(sparse.t, every.t[::10])
+    assert np.array_equal(sparse.x, every.x[::10])
+    # the specific force is then the mean over the 0.1 s interval (in NED:
+    # the body frame turns within it)
+    def ned_acceleration(run):
+        rot = quaternion_to_matrix(run.x[1:, 0, 3:7])
+        return np.einsum("kij,kj->ki", rot, run.specific_force_imu[1:, 0]) + [0, 0, 9.80665]
+
+    dense = ned_acceleration(every).reshape(-1, 10, 3).mean(axis=1)
+    assert np.allclose(ned_acceleration(sparse), dense, atol=1e-9)
+    with pytest.raises(ValueError, match="multiple of record_every"):
+        simulate(model, x0, 1.0, dt=0.01, record_every=10, controller=lambda t, x: x[:, 13:], control_period=0.02)

@@ -159,8 +159,9 @@ def do_bench_dynamics(args: argparse.Namespace) -> None:
     run = simulate(single, x0, args.duration, dt=dt)
     batch = Model(None, n=args.batch)
     xb = np.repeat(x0, args.batch, axis=0)
-    simulate(batch, xb, 2 * dt, dt=dt)
-    brun = simulate(batch, xb, args.batch_duration, dt=dt)
+    every = max(1, int(round(args.batch_record / dt)))
+    simulate(batch, xb, 2 * dt * every, dt=dt, record_every=every)
+    brun = simulate(batch, xb, args.batch_duration, dt=dt, record_every=every)
     result = {
         "integrator": "rk4 (servo solved exactly over each step)",
         "dt_s": dt,
@@ -168,6 +169,7 @@ def do_bench_dynamics(args: argparse.Namespace) -> None:
         "real_time_factor": args.duration / run.wall_time_s,
         "batch_size": args.batch,
         "batch_simulated_s": args.batch_duration,
+        "batch_recorded_every_s": every * dt,
         "vehicle_seconds_per_second": args.batch * args.batch_duration / brun.wall_time_s,
         "first_call_s": warm,
     }
@@ -203,4 +205,6 @@ def register(sub, bench) -> None:
     p.add_argument("--duration", type=positive, default=60.0, help="simulated seconds, one vehicle (default 60)")
     p.add_argument("--batch", type=int, default=1000, help="vehicles in the batch (default 1000)")
     p.add_argument("--batch-duration", type=positive, default=5.0, help="simulated seconds, batch (default 5)")
+    p.add_argument("--batch-record", type=positive, default=0.1,
+                   help="the batch keeps one state every this many seconds (default 0.1)")
     add_json(p)
