@@ -12,11 +12,28 @@
    wrongly it prints one line per device (which part, which bus and
    address, what to check) and stops, returning 1, without a traceback:
    the vehicle does not run without its sensors;
-4. otherwise starts the watchdog and runs the scheduler.
+4. builds the flight layer: ``Navigation`` (the estimator and its inputs),
+   ``Failsafes`` (arming checks and failsafes), ``Modes``, the MAVLink
+   ``Link`` on the radio and ``Flight`` (modes to wing commands, with the
+   controller of ``shared/control`` when the firmware has one);
+5. starts the watchdog and runs the scheduler with seven tasks:
 
-``build()`` does 1-3 and returns the ``Vehicle`` (drivers, parameters,
-scheduler with the driver tasks), so the integration adds its tasks in
-one line each, e.g. ``v.sched.add("estimator", est.step, MAIN_MS)``.
+   ========  ======  ======================================================
+   task      period  work
+   ========  ======  ======================================================
+   nav       10 ms   IMU and magnetometer bursts, estimator step (100 Hz)
+   link      10 ms   radio bytes, MAVLink in and out, telemetry
+   depth     20 ms   MS5837 conversion collected and the next started;
+                     a fresh pressure to the estimator (phase 1)
+   control   20 ms   failsafes (10 Hz), mode, controller (50 Hz), servos
+   leak      50 ms   leak probe, debounced
+   battery   100 ms  pack voltage, filtered
+   params    1 s     saves the parameters when they changed
+   ========  ======  ======================================================
+
+``build()`` does 1-4 and returns the ``Vehicle``; ``main()`` keeps it in
+``vehicle`` while it runs, so the REPL (after Ctrl-C) and the twin can
+read its state.
 
 Ctrl-C at the USB REPL (a person, or the flashing tool) stops the loop,
 puts the wings at the safe angle and stops the hardware watchdog, so the
@@ -35,10 +52,24 @@ from roboray.firmware.drivers.lsm6dsox import LSM6DSOX
 from roboray.firmware.drivers.ms5837 import MS5837
 from roboray.firmware.drivers.radio import Radio
 from roboray.firmware.drivers.servo import Servo, Wings
+from roboray.firmware import failsafe as failsafe_mod
+from roboray.firmware import navigation as navigation_mod
+from roboray.firmware.failsafe import Failsafes
+from roboray.firmware.flight import Flight
+from roboray.firmware.link import Link
+from roboray.firmware.navigation import Navigation
 from roboray.firmware.param_store import ParamStore
 from roboray.firmware.scheduler import Scheduler
+from roboray.firmware.telemetry import Reporter
+from roboray.shared import modes as modes_mod
 from roboray.shared import param_defs
+from roboray.shared.mavlink.telemetry import Telemetry
 from roboray.shared.params import ParamTable
+
+try:
+    from roboray.shared import control as control_mod
+except ImportError:  # a firmware without a controller flies PASSIVE and FAILSAFE only
+    control_mod = None
 
 #: What the application prints first where no build wrote ``build_info``.
 UNKNOWN_BANNER = "RoboRay firmware unknown unknown"
@@ -55,8 +86,13 @@ PARAMS_MS = 1000    # saves the parameters when they changed
 WDT_TIMEOUT_MS = 1000
 PARAM_PATH = "/params.bin"
 
-#: Every parameter the application declares: the shared ones and the drivers'.
-PARAMS = param_defs.PARAMS + servo_mod.PARAMS + battery_mod.PARAMS
+#: Every parameter the application declares: the shared ones, the drivers',
+#: navigation's, the failsafes' and the controller's.
+PARAMS = (param_defs.PARAMS + servo_mod.PARAMS + battery_mod.PARAMS + navigation_mod.PARAMS
+          + failsafe_mod.PARAMS + (getattr(control_mod, "PARAMS", ()) if control_mod is not None else ()))
+
+#: The running vehicle (set by ``main()``), for the REPL and the twin.
+vehicle = None
 
 _DEG = 0.017453292519943295
 
@@ -110,6 +146,14 @@ class Vehicle:
         self.leak = None
         self.sched = None
         self.wdt = None
+        self.nav = None
+        self.telemetry = None
+        self.failsafes = None
+        self.modes = None
+        self.link = None
+        self.flight = None
+        self.controller = None
+        self.reporter = None
         self.problems = []
         self.warnings = []
 
@@ -161,21 +205,51 @@ class Vehicle:
                                  % p.i2c_name())
 
     def read_imu(self):
-        """Main-rate task: accelerometer, gyroscope and magnetometer."""
+        """Accelerometer, gyroscope and magnetometer alone (the benchmark's task)."""
         self.imu.read()
         self.mag.read()
 
+    def build_flight(self, reset_cause=0):
+        """Estimator, failsafes, modes, MAVLink and control over the drivers."""
+        m = self.machine
+        try:
+            nav = Navigation(self.imu, self.mag, self.depth, self.params, self.clock)
+        except ValueError as e:
+            self.problems.append("navigation: %s" % e)
+            return
+        self.nav = nav
+        t = Telemetry()
+        self.telemetry = t
+        fs = Failsafes(self.params, nav, self.leak, self.battery, None, self.clock,
+                       watchdog_reset=reset_cause == getattr(m, "WDT_RESET", -1))
+        fs.telemetry = t
+        self.failsafes = fs
+        modes = modes_mod.Modes(fs)
+        fs.modes = modes
+        self.modes = modes
+        reporter = Reporter(t, nav, self.wings, self.battery, None)
+        self.reporter = reporter
+        link = Link(self.radio, self.params, modes, t, nav, reporter, self.store, m, self.clock)
+        fs.link = link.ep
+        self.link = link
+        if control_mod is not None:
+            self.controller = control_mod.Controller(self.params)
+            fs.has_controller = True
+        self.flight = Flight(modes, self.wings, nav, fs, link.ep, t, self.params, self.clock, self.controller)
+
     def build_loop(self, reset_cause=0):
-        """The scheduler with the driver tasks (the integration adds its own)."""
+        """The scheduler with the vehicle's seven tasks."""
         s = Scheduler(self.clock, MAIN_MS, reset_cause=reset_cause)
-        s.add("imu", self.read_imu, MAIN_MS)
-        s.add("radio", self.radio.service, RADIO_MS)
-        s.add("depth", self.depth.update, DEPTH_MS, phase=1)
-        s.add("servos", self.wings.update, CONTROL_MS)
+        s.add("nav", self.nav.step, MAIN_MS)
+        s.add("link", self.link.step, RADIO_MS)
+        s.add("depth", self.nav.depth_step, DEPTH_MS, phase=1)
+        s.add("control", self.flight.step, CONTROL_MS)
         s.add("leak", self.leak.update, LEAK_MS, phase=3)
         s.add("battery", self.battery.update, BATTERY_MS, phase=5)
         s.add("params", self.store.service, PARAMS_MS, phase=7)
         self.sched = s
+        self.failsafes.sched = s
+        self.reporter.sched = s
         return s
 
     def run(self, cycles=-1):
@@ -213,6 +287,8 @@ def build(machine, clock, board=None, param_path=PARAM_PATH, fs=None):
     v.probe_sensors()
     for line in v.warnings:
         print("WARNING " + line)
+    if not v.problems:
+        v.build_flight(machine.reset_cause())
     for line in v.problems:
         print(line)
     if not v.problems:
@@ -220,8 +296,13 @@ def build(machine, clock, board=None, param_path=PARAM_PATH, fs=None):
     return v
 
 
-def main(board=None, cycles=-1, param_path=PARAM_PATH):
-    """Start the vehicle; 0 when the loop ended, 1 when it could not start."""
+def main(board=None, cycles=-1, param_path=PARAM_PATH, fs=None):
+    """Start the vehicle; 0 when the loop ended, 1 when it could not start.
+
+    ``fs`` is the file system the parameters are kept on (the board's by
+    default; the twin passes one that can lose power mid-save).
+    """
+    global vehicle
     print(banner())
     try:
         import machine
@@ -231,7 +312,7 @@ def main(board=None, cycles=-1, param_path=PARAM_PATH):
         return 1
     print("reset cause: %s" % reset_cause_name(machine, machine.reset_cause()))
     try:
-        v = build(machine, time, board, param_path)
+        v = build(machine, time, board, param_path, fs)
     except ValueError as e:
         print("cannot start: %s" % e)
         return 1
@@ -240,5 +321,6 @@ def main(board=None, cycles=-1, param_path=PARAM_PATH):
               % len(v.problems))
         return 1
     print("running: %d tasks, loop %d Hz" % (len(v.sched.names), 1000 // MAIN_MS))
+    vehicle = v
     v.run(cycles)
     return 0

@@ -30,12 +30,13 @@ STREAMS = (
 
 #: Failsafes (issue 9 uses these): enables, time-outs and actions.
 FAILSAFE = (
-    ("FS_GCS_ENABLE", TYPE_UINT8, 1, 0, 1),          # failsafe when the ground falls silent
+    # actions (firmware/failsafe.py): 0 off, 1 warn, 2 disarm, 3 FAILSAFE mode
+    ("FS_GCS_ENABLE", TYPE_UINT8, 1, 0, 3),          # action when the ground falls silent
     ("FS_GCS_TIMEOUT", TYPE_REAL32, 5.0, 1.0, 120.0),  # s without a ground heartbeat
-    ("FS_LEAK_ENABLE", TYPE_UINT8, 1, 0, 1),         # failsafe on the leak sensor
-    ("FS_EKF_ACTION", TYPE_UINT8, 1, 0, 2),          # 0 report, 1 FAILSAFE mode, 2 PASSIVE mode
+    ("FS_LEAK_ENABLE", TYPE_UINT8, 3, 0, 3),         # action on a leak
+    ("FS_EKF_ACTION", TYPE_UINT8, 3, 0, 3),          # action when the estimate is invalid
     ("FS_EKF_THRESH", TYPE_REAL32, 0.8, 0.1, 5.0),   # estimator innovation ratio that trips it
-    ("BATT_FS_LOW_ACT", TYPE_UINT8, 1, 0, 2),        # 0 report, 1 FAILSAFE mode, 2 PASSIVE mode
+    ("BATT_FS_LOW_ACT", TYPE_UINT8, 1, 0, 3),        # action on a low battery
     ("BATT_LOW_VOLT", TYPE_REAL32, 6.6, 0.0, 30.0),  # V, low-battery threshold
 )
 

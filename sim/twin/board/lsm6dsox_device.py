@@ -100,6 +100,17 @@ class LSM6DSOXDevice(RegisterDevice):
         self._phys[0] = temp_c
         self._quantise()
 
+    def set_motion(self, ax, ay, az, gx, gy, gz):
+        """``set_accel`` and ``set_gyro`` at once (one quantisation: the twin's step)."""
+        p = self._phys
+        p[1] = gx
+        p[2] = gy
+        p[3] = gz
+        p[4] = ax
+        p[5] = ay
+        p[6] = az
+        self._quantise()
+
     def accel_lsb(self):
         """m/s^2 per LSB at the configured full scale."""
         return _XL_MG[(self.regs[_CTRL1_XL] >> 2) & 3] * 1e-3 * G

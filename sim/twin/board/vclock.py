@@ -23,7 +23,9 @@ Twin side:
 - ``set_tick_cost_us(n)``: every ``ticks_us``/``ticks_ms``/``ticks_cpu`` call
   also advances time by ``n`` us, so a loop that polls the clock without
   sleeping still makes progress (0, the default, is free code).
-- ``elapsed_us()``: simulated time since ``reset``, not wrapped.
+- ``elapsed_us()``: simulated time since ``reset``, not wrapped;
+- ``wall_us()``: the host's real clock in microseconds (wrapping as its
+  ticks do), for the twin's measurements of its own speed.
 
 Everything here is small-integer arithmetic: nothing allocates on a 31-bit
 small-int build except ``time`` and ``time_ns`` (whose values exceed 2**30,
@@ -112,6 +114,15 @@ def advance(dt_us):
 def elapsed_us():
     """Simulated microseconds since ``reset()`` (a big integer after ~18 min)."""
     return _elapsed_s * _US_PER_S + _s_frac
+
+
+def wall_us():
+    """The host's real clock, us (MicroPython's ticks_us, or CPython's
+    perf_counter wrapped the same way): the twin's stopwatch."""
+    f = getattr(_host_time, "ticks_us", None)
+    if f is not None:
+        return f()
+    return (_host_time.perf_counter_ns() // 1000) & _TICKS_MAX
 
 
 # ----------------------------------------------------------- board's API

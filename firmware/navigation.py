@@ -1,0 +1,244 @@
+"""Sensors to the estimator: axes, calibration, time stamps, depth zero.
+
+``Navigation`` owns the vehicle's ``Estimator`` (``shared/estimator``) and
+feeds it from the drivers, as two scheduler tasks:
+
+- ``step()`` (100 Hz): one IMU burst and one magnetometer burst, mapped from
+  the chips' axes to the body axes (x along wing 1, z down when level), then
+  ``Estimator.imu`` / ``mag``; a failed read still gives the estimator the
+  time (``check``), which is how it notices a silent IMU;
+- ``depth_step()`` (every 20 ms): the MS5837 state machine; a fresh pressure
+  goes to ``Estimator.depth`` with the middle of its conversion as its time.
+  It also counts the pressures the estimator's gate rejected in a row
+  (``depth_rejected_run``): a sensor that returns plausible-looking garbage,
+  or sticks while the vehicle still moves, is caught there, by its
+  disagreement with the accelerometer, never by a reading that stays the
+  same (a vehicle resting on the bottom reads the same depth for minutes).
+
+Position fixes (ATT_POS_MOCAP from the ground's tracker relay) arrive
+through ``fix(north, east)``; the tracker's latency plus the radio's is the
+``VISO_DELAY_MS`` parameter (ArduPilot's name for the same thing), so the
+fix is dated ``now - VISO_DELAY_MS``, as ArduPilot dates external
+navigation, and no clock has to be shared with the ground.
+
+Mounting (``AHRS_ORIENTATION``, ArduPilot's numbering): 0 = chip axes are the
+body axes; 8 = roll 180 deg (the default: the 9-DoF board lies flat with its
+z up, the body's z points down); 2, 4, 6 and 10, 12, 14 add a yaw of 90,
+180, 270 deg. The magnetometer shares the accelerometer's axes (one board).
+
+The depth zero: ``BARO1_GND_PRESS`` (Pa) is the surface pressure the depth is
+measured from. ``zero_at_surface()`` sets it from the latest pressure when
+the vehicle is armed at the surface (the firmware calls it on arming, as
+ArduPilot recalibrates its barometer on arming) and keeps it in the
+parameter, so a board that resets under water still measures from the
+surface; arming under water (estimated depth over 1 m) keeps it.
+"""
+
+from array import array
+
+from roboray.shared.estimator import Estimator
+from roboray.shared.estimator import health as eh
+from roboray.shared.estimator.attitude import Attitude
+from roboray.shared.estimator.descent_model import TAU_S
+from roboray.shared.estimator.horizontal import Horizontal
+from roboray.shared.params import TYPE_REAL32, TYPE_UINT8, TYPE_UINT16
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+_G = 9.80665
+_WATER = 1000.0
+_SURFACE_MAX_M = 1.0
+
+#: Navigation parameters (shared/params.py declarations), ArduPilot's names where they exist.
+PARAMS = (
+    ("AHRS_ORIENTATION", TYPE_UINT8, 8, 0, 14),          # chip axes to body axes (0, 2, .. 14)
+    ("INS_POS1_X", TYPE_REAL32, 0.010, -0.5, 0.5),      # m, IMU from the centre of buoyancy
+    ("INS_POS1_Y", TYPE_REAL32, 0.005, -0.5, 0.5),
+    ("INS_POS1_Z", TYPE_REAL32, -0.030, -0.5, 0.5),
+    ("BARO_POS_X", TYPE_REAL32, 0.0, -0.5, 0.5),        # m, pressure port from the centre of buoyancy
+    ("BARO_POS_Y", TYPE_REAL32, 0.020, -0.5, 0.5),
+    ("BARO_POS_Z", TYPE_REAL32, -0.004, -0.5, 0.5),
+    ("BARO_SPEC_GRAV", TYPE_REAL32, 1.0, 0.98, 1.05),   # water's specific gravity (1.0 fresh, 1.024 sea)
+    ("BARO1_GND_PRESS", TYPE_REAL32, 101325.0, 50000.0, 120000.0),  # Pa at the surface (set on arming)
+    ("COMPASS_OFS_X", TYPE_REAL32, 0.0, -2000.0, 2000.0),  # mGauss, hard iron
+    ("COMPASS_OFS_Y", TYPE_REAL32, 0.0, -2000.0, 2000.0),
+    ("COMPASS_OFS_Z", TYPE_REAL32, 0.0, -2000.0, 2000.0),
+    ("COMPASS_DIA_X", TYPE_REAL32, 1.0, 0.2, 5.0),      # soft iron, diagonal
+    ("COMPASS_DIA_Y", TYPE_REAL32, 1.0, 0.2, 5.0),
+    ("COMPASS_DIA_Z", TYPE_REAL32, 1.0, 0.2, 5.0),
+    ("COMPASS_ODI_X", TYPE_REAL32, 0.0, -1.0, 1.0),     # soft iron, off-diagonal xy
+    ("COMPASS_ODI_Y", TYPE_REAL32, 0.0, -1.0, 1.0),     # xz
+    ("COMPASS_ODI_Z", TYPE_REAL32, 0.0, -1.0, 1.0),     # yz
+    ("COMPASS_DEC", TYPE_REAL32, 0.0, -3.1416, 3.1416),  # rad, magnetic declination
+    ("VISO_DELAY_MS", TYPE_UINT16, 210, 0, 2000),       # ms from a fix's measurement to its arrival
+)
+
+# AHRS_ORIENTATION -> where each body axis comes from in the chip's axes:
+# (chip index, negate) for body x, y, z. Yaw 90 turns chip x onto body y.
+_ROTATIONS = {
+    0: ((0, 0), (1, 0), (2, 0)),
+    2: ((1, 1), (0, 0), (2, 0)),
+    4: ((0, 1), (1, 1), (2, 0)),
+    6: ((1, 0), (0, 1), (2, 0)),
+    8: ((0, 0), (1, 1), (2, 1)),
+    10: ((1, 1), (0, 1), (2, 1)),
+    12: ((0, 1), (1, 0), (2, 1)),
+    14: ((1, 0), (0, 0), (2, 1)),
+}
+
+# Estimator.status bits the firmware reads
+ATTITUDE_VALID = eh.ATTITUDE_VALID
+DEPTH_VALID = eh.DEPTH_VALID
+POSITION_VALID = eh.POSITION_VALID
+
+_REJECTS = eh.STATUS_DEPTH_REJECTS
+_HEALTH = eh.STATUS_HEALTH
+
+
+def _p(params, name):
+    i = params.index(name)
+    if i < 0:
+        raise ValueError("parameter %s is not declared" % name)
+    return params.get(i)
+
+
+class Navigation:
+    """The estimator and its inputs.
+
+    Parameters
+    ----------
+    imu, mag, depth:
+        The LSM6DSOX, LIS3MDL and MS5837 drivers.
+    params:
+        The parameter table (``PARAMS`` above declared in it).
+    clock:
+        The ``time`` module (or the twin's virtual clock).
+
+    Raises ValueError naming the parameter when one is unusable.
+    """
+
+    def __init__(self, imu, mag, depth, params, clock):
+        self.imu = imu
+        self.mag = mag
+        self.depth = depth
+        self.params = params
+        self._clock = clock
+        orientation = params.get_int(params.index("AHRS_ORIENTATION"))
+        rot = _ROTATIONS.get(orientation)
+        if rot is None:
+            raise ValueError("AHRS_ORIENTATION %d is not supported (0, 2, 4, .. 14: yaw in 90 deg steps, "
+                             "with or without roll 180)" % orientation)
+        self._ax = bytearray(3)
+        self._neg = bytearray(3)
+        for k in range(3):
+            self._ax[k] = rot[k][0]
+            self._neg[k] = rot[k][1]
+        #: The last IMU and magnetometer sample in body axes: accel (m/s^2), gyro (rad/s), field (gauss).
+        self.body = array("f", [0.0] * 9)
+        self._gnd = params.index("BARO1_GND_PRESS")
+        self._delay_i = params.index("VISO_DELAY_MS")
+        density = _WATER * _p(params, "BARO_SPEC_GRAV")
+        self.est = Estimator(
+            attitude=Attitude(declination=_p(params, "COMPASS_DEC")),
+            horizontal=Horizontal(tau=TAU_S),
+            imu_position=(_p(params, "INS_POS1_X"), _p(params, "INS_POS1_Y"), _p(params, "INS_POS1_Z")),
+            port_position=(_p(params, "BARO_POS_X"), _p(params, "BARO_POS_Y"), _p(params, "BARO_POS_Z")),
+            fluid_density=density, surface_pressure_pa=params.get(self._gnd))
+        self._rho_g = density * _G
+        self.configure_compass()
+        self.imu_samples = 0
+        self.depth_samples = 0
+        self.fixes = 0
+        #: Fresh pressures the estimator's gate rejected in a row.
+        self.depth_rejected_run = 0
+        self._rejects_seen = 0
+        self._fed = False
+
+    def configure_compass(self):
+        """Magnetometer calibration from the COMPASS_* parameters (mGauss offsets)."""
+        p = self.params
+        o = (_p(p, "COMPASS_OFS_X") * 0.001, _p(p, "COMPASS_OFS_Y") * 0.001, _p(p, "COMPASS_OFS_Z") * 0.001)
+        dx, dy, dz = _p(p, "COMPASS_DIA_X"), _p(p, "COMPASS_DIA_Y"), _p(p, "COMPASS_DIA_Z")
+        xy, xz, yz = _p(p, "COMPASS_ODI_X"), _p(p, "COMPASS_ODI_Y"), _p(p, "COMPASS_ODI_Z")
+        # ArduPilot's soft-iron matrix: symmetric, diagonal DIA, off-diagonal ODI.
+        self.est.set_mag_calibration(o, (dx, xy, xz, xy, dy, yz, xz, yz, dz))
+
+    # ------------------------------------------------------------ tasks
+    def _to_body(self, src, at):
+        # chip axes -> body axes into self.body[at:at+3], per AHRS_ORIENTATION
+        b = self.body
+        ax = self._ax
+        neg = self._neg
+        for k in range(3):
+            v = src[ax[k]]
+            b[at + k] = -v if neg[k] else v
+
+    def step(self):
+        """Scheduler task (100 Hz): IMU and magnetometer to the estimator."""
+        est = self.est
+        t = self._clock.ticks_us()
+        b = self.body
+        if self.imu.read():
+            self._to_body(self.imu.accel, 0)
+            self._to_body(self.imu.gyro, 3)
+            est.imu(t, b[3], b[4], b[5], b[0], b[1], b[2])
+            self.imu_samples += 1
+        else:
+            est.check(t)
+        if self.mag.read():
+            self._to_body(self.mag.mag_gauss, 6)
+            est.mag(t, b[6], b[7], b[8])
+
+    def depth_step(self):
+        """Scheduler task (every 20 ms): the pressure sensor to the estimator."""
+        est = self.est
+        if self._fed:
+            # the estimator fused (or refused) the previous pressure by now
+            rejects = est.status[_REJECTS]
+            if rejects != self._rejects_seen:
+                self._rejects_seen = rejects
+                self.depth_rejected_run += 1
+            else:
+                self.depth_rejected_run = 0
+            self._fed = False
+        d = self.depth
+        if d.update():
+            est.depth(d.sample_us, d.pressure_pa)
+            self.depth_samples += 1
+            self._fed = True
+
+    def fix(self, north, east):
+        """A position fix (m, NED) that arrived now; dated by VISO_DELAY_MS."""
+        clock = self._clock
+        delay_us = self.params.get_int(self._delay_i) * 1000
+        self.est.fix(clock.ticks_add(clock.ticks_us(), -delay_us), north, east)
+        self.fixes += 1
+
+    # ------------------------------------------------------------ state
+    def valid(self, bits):
+        """True when every estimator status bit in ``bits`` is set."""
+        return self.est.status[_HEALTH] & bits == bits
+
+    def depth_m(self):
+        return self.est.nav[0]
+
+    def zero_at_surface(self):
+        """Take the latest pressure as the surface's (on arming); True if done."""
+        d = self.depth
+        if not d.health.healthy():
+            return False
+        if self.valid(DEPTH_VALID) and self.est.nav[0] > _SURFACE_MAX_M:
+            return False  # armed under water: keep the surface we had
+        p = d.pressure_pa
+        est = self.est
+        est.zero_depth(p, 0.0)
+        # restart the depth filter on the new zero, as Estimator.reset() does,
+        # rather than let its gate refuse a jump it did not see happen
+        est.vert.initialised = False
+        self.depth_rejected_run = 0
+        self.params.set(self._gnd, float(p))
+        return True

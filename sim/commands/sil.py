@@ -1,0 +1,219 @@
+"""``roboray-sim sil`` and ``bench sil``: the firmware flying the simulated vehicle."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+from roboray.tools.cli import CliError, add_json, command, emit, floats, positive
+
+log = logging.getLogger("roboray.sim.sil")
+
+
+def speedup(text: str):
+    """``max`` or a positive number (1: real time)."""
+    if text == "max":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("--speedup %r: max or a number > 0 (1 is real time)" % text)
+    if not value > 0 or value != value or value == float("inf"):
+        raise argparse.ArgumentTypeError("--speedup %r: max or a number > 0 (1 is real time)" % text)
+    return value
+
+
+def fault(text: str):
+    from roboray.sim.twin import faults
+
+    try:
+        return faults.parse(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc))
+
+
+def param(text: str):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError("--param %r: expected NAME=VALUE" % text)
+    try:
+        v = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError("--param %r: %r is not a number" % (text, value))
+    if v != v or v in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError("--param %r: the value must be finite" % text)
+    return name.upper(), v
+
+
+def _options(args: argparse.Namespace):
+    from roboray.sim.twin.runner import Options
+
+    return Options(scenario=args.scenario, seed=args.seed, interpreter=args.interpreter, speedup=args.speedup,
+                   radio=args.radio, faults=list(args.fault or []), tlog=args.tlog, params=dict(args.param or []),
+                   depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
+                   vehicle=args.vehicle, water=args.water)
+
+
+def _twin(args: argparse.Namespace, **kwargs):
+    from roboray.firmware import app
+    from roboray.sim.twin import scenarios
+    from roboray.sim.twin.runner import Twin
+
+    try:
+        scenario = scenarios.make(args.scenario, args.depth, tuple(args.target) if args.target else None,
+                                  args.duration)
+    except ValueError as exc:
+        raise CliError(str(exc))
+    if scenario.needs_controller and app.control_mod is None:
+        raise CliError("scenario %s needs the controller (shared/control), which this firmware does not have "
+                       "yet; passive-drop and bottom-rest fly without it" % args.scenario)
+    try:
+        return Twin(_options(args), **kwargs)
+    except ValueError as exc:
+        raise CliError(str(exc))
+    except OSError as exc:
+        raise CliError("--radio %s: %s" % (args.radio, exc))
+
+
+def _announce(radio) -> None:
+    dev = getattr(radio, "device", None)
+    if dev is not None:
+        sys.stderr.write("radio: %s (connect with: roboray-ground watch --master %s)\n" % (dev, dev))
+    else:
+        sys.stderr.write("radio: %s\n" % radio.describe)
+    sys.stderr.flush()
+
+
+def do_sil(args: argparse.Namespace) -> None:
+    twin = _twin(args, on_radio=_announce)
+    log.info("scenario %s, seed %d, firmware on %s, %s", args.scenario, args.seed, args.interpreter,
+             "as fast as possible" if args.speedup is None else "%gx real time" % args.speedup)
+    report = twin.run()
+    console = report.pop("console")
+    for line in console:
+        log.debug("board: %s", line)
+    if args.plot:
+        from roboray.sim.twin.plot import plot
+
+        plot(twin, report, args.plot)
+        report["plot"] = args.plot
+    if args.json:
+        report["console"] = console
+
+    def text(r: dict) -> str:
+        lines = ["%s on %s: %.1f s simulated in %.1f s (%.1fx real time)" % (
+            r["scenario"], r["interpreter"], r["duration_s"], r["wall_time_s"], r["real_time_factor"] or 0)]
+        if r["landed"]:
+            ne = r["landing_point"]
+            lines.append("landed at %.2f s, %.2f m north %.2f m east of the release point" % (
+                r["landed_at_s"], ne[0], ne[1]))
+        else:
+            lines.append("did not reach the bottom (%g m)" % r["bottom_depth_m"])
+        if r.get("landing_error_m") is not None:
+            lines.append("landing error %.3f m from the target %s" % (r["landing_error_m"], r["target"]))
+        lines.append("modes: " + ", ".join("%s at %.2f s" % (m, t) for t, m in r["modes"]))
+        if r["failsafes"]:
+            lines.append("failsafes: " + ", ".join("%s at %.2f s" % (f["name"], f["t"]) for f in r["failsafes"]))
+        else:
+            lines.append("failsafes: none")
+        for t, sev, msg in r["statustext"]:
+            lines.append("  STATUSTEXT %.2f s: %s" % (t, msg))
+        lines.append("loop: %s overruns, max %s ms; %s reset(s), %s power cut(s)" % (
+            r["overruns"], r["max_loop_ms"], r["resets"], r["power_cuts"]))
+        if r.get("plot"):
+            lines.append("wrote %s" % r["plot"])
+        if r.get("tlog"):
+            lines.append("wrote %s" % r["tlog"])
+        return "\n".join(lines)
+
+    emit(args, report, text)
+
+
+def do_bench_sil(args: argparse.Namespace) -> None:
+    """The passive drop on the interpreter, and where a frame's time goes."""
+    args.scenario = "passive-drop"
+    args.speedup = None
+    args.radio = None
+    args.fault = []
+    args.tlog = None
+    args.param = []
+    args.depth = None
+    args.target = None
+    args.vehicle = None
+    args.water = "fresh"
+    twin = _twin(args)
+    report = twin.run()
+    b = twin.board_report
+    frames = max(int(b.get("frames", 0)), 1)
+    host_us = report["host_wall_s"] * 1e6 / frames
+    world_us = twin.world_wall * 1e6 / frames
+    request_us = b.get("request_us", 0) / frames
+    board_us = b.get("board_us", 0) / frames
+    frame_ms = report["wall_time_s"] * 1e3 / frames
+    result = {
+        "interpreter": report["interpreter"],
+        "simulated_s": report["duration_s"],
+        "wall_time_s": report["wall_time_s"],
+        "real_time_factor": report["real_time_factor"],
+        "landed": report["landed"],
+        "frames": frames,
+        "frame_virtual_ms": 20.0,
+        "frame_wall_ms": round(frame_ms, 3),
+        "per_frame_us": {
+            "firmware_and_emulation": round(board_us, 1),
+            "hostlink_round_trip": round(max(request_us - host_us, 0.0), 1),
+            "host_world_and_ground": round(host_us, 1),
+            "of_which_dynamics_and_sensors": round(world_us, 1),
+        },
+        "overruns": report["overruns"],
+    }
+    parts = result["per_frame_us"]
+    biggest = max(("firmware_and_emulation", "hostlink_round_trip", "host_world_and_ground"), key=lambda k: parts[k])
+    result["limited_by"] = biggest
+
+    def text(r: dict) -> str:
+        p = r["per_frame_us"]
+        return ("passive drop on %s: %.1f s simulated in %.1f s, %.1fx real time\n"
+                "per 20 ms frame: %.0f us firmware + emulation, %.0f us hostlink round trip, %.0f us world and "
+                "ground (%.0f us dynamics and sensors); limited by %s"
+                % (r["interpreter"], r["simulated_s"], r["wall_time_s"], r["real_time_factor"],
+                   p["firmware_and_emulation"], p["hostlink_round_trip"], p["host_world_and_ground"],
+                   p["of_which_dynamics_and_sensors"], r["limited_by"]))
+
+    emit(args, result, text)
+
+
+def register(sub, bench) -> None:
+    from roboray.sim.commands.dynamics import add_vehicle_options
+    from roboray.sim.twin import faults, scenarios
+
+    p = command(sub, "sil", do_sil, "the firmware (unchanged, on MicroPython) flying the simulated vehicle")
+    p.add_argument("--scenario", choices=scenarios.NAMES, default="passive-drop",
+                   help="what the vehicle and the operator do (default passive-drop)")
+    p.add_argument("--speedup", type=speedup, default=None, metavar="max|N",
+                   help="max: as fast as possible (default); N: N times real time (1 to fly with a ground station)")
+    p.add_argument("--interpreter", choices=("micropython", "cpython"), default="micropython",
+                   help="run the firmware on the real MicroPython interpreter (default) or on CPython")
+    p.add_argument("--radio", metavar="pty|udp:PORT",
+                   help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr) or to a "
+                        "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")
+    p.add_argument("--fault", type=fault, action="append", metavar="NAME@SECONDS",
+                   help="inject a fault (repeatable): %s" % ", ".join(faults.NAMES))
+    p.add_argument("--tlog", metavar="FILE", help="record the link both ways (MAVProxy's tlog, virtual time)")
+    p.add_argument("--seed", type=int, default=0, help="seeds every random stream (default 0)")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the track, depth, wings and the firmware's modes")
+    p.add_argument("--depth", type=positive, help="tank bottom, m (default: the scenario's)")
+    p.add_argument("--target", type=lambda s: floats(s, 2, "--target"), metavar="NORTH,EAST",
+                   help="target-landing: the target, m from the release point (default 2,0)")
+    p.add_argument("--duration", type=positive, help="the longest the run lasts, simulated s")
+    p.add_argument("--param", type=param, action="append", metavar="NAME=VALUE",
+                   help="a parameter the board boots with (repeatable)")
+    add_vehicle_options(p)
+    add_json(p)
+
+    p = command(bench, "sil", do_bench_sil, "speed of the twin: the passive drop and where a frame's time goes")
+    p.add_argument("--interpreter", choices=("micropython", "cpython"), default="micropython")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--duration", type=positive, default=None, help="cut the drop short, simulated s")
+    add_json(p)

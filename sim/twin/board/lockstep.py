@@ -1,0 +1,245 @@
+"""The twin inside the interpreter: the emulated board in lockstep with the world.
+
+MicroPython code (the same file runs on CPython in the twin's child process
+for ``--interpreter cpython``). ``run()`` puts the three sensors on the
+emulated Pico 2's I2C bus, installs the virtual clock's hook and runs the
+firmware's own entry point, ``roboray.firmware.app.main()``, again after
+every reset, as the board's ``main.py`` would be.
+
+Lockstep. Time moves only when the firmware sleeps (``vclock``); the hook
+sees every advance. At each frame boundary (every ``frame_us`` of board
+time, 20 ms: one servo frame) it makes one ``hostlink.request``:
+
+- request: ``"<p1> <p2> <p3> <p4> <mode> <failsafes> <hex>"``: the four
+  servo pulses (ns, as the PWM outputs show them now), the firmware's mode
+  and active failsafe bits (for the twin's record; -1 when no application
+  runs) and the bytes the radio UART sent since the last frame;
+- reply: JSON ``[steps, hex, events]``: ``steps`` holds the physical inputs
+  at this boundary and the next ``step_us`` ones within the frame, each
+  ``[ax, ay, az, gx, gy, gz, mx, my, mz, p_pa, temp_c, v_batt, leak]``
+  (chip axes; m/s^2, rad/s, gauss, Pa, C, V at the pack, 0/1; ``p_pa``,
+  ``v_batt`` and ``leak`` are null when unchanged), applied to the devices
+  at their boundary; ``hex`` are bytes for the board's radio UART (the line
+  paces them at its baud rate); ``events`` are faults and orders:
+  ``["fault", "depth"|"imu"|"mag", kind]`` (``i2c_device.FAULT_*``),
+  ``["cut", n]`` (power goes at the n-th flash step of the next parameter
+  save), ``["hang"]`` (the loop stops until the watchdog resets the
+  board), ``["cost", us]`` (every clock reading costs ``us``: an overloaded
+  CPU), ``["stop"]`` (end of the run).
+
+A reset (watchdog, ``machine.reset()``, a power cut) ends the application
+with a ``BaseException`` the firmware cannot catch; the runner power-cycles
+what the reset cuts and starts ``main()`` again. The world goes on
+meanwhile, and so does the virtual clock: the sensors keep their own time
+and the firmware never relies on ticks starting at 0. At the end the
+runner reports its counts with one last request, ``"E" + JSON``.
+"""
+
+import binascii
+import json
+
+import hostlink
+import machine
+import time
+
+from roboray.firmware import app
+from roboray.firmware.param_store import Files
+from roboray.sim.twin.board import vclock
+from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice
+from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice
+from roboray.sim.twin.board.ms5837_device import MS5837Device
+from roboray.sim.twin.board.powercut import PowerCut, PowerCutFiles
+
+SERVO_PINS = (10, 11, 12, 13)
+UART_ID = 0
+ADC_CHANNEL = 0
+LEAK_PIN = 15
+
+
+class Stop(BaseException):
+    """The twin ends the run."""
+
+
+class Lockstep:
+    """The clock hook and the devices; see the module docstring."""
+
+    def __init__(self, frame_us=20000, step_us=10000, divider=3.0):
+        if frame_us % step_us:
+            raise ValueError("frame_us %d is not a multiple of step_us %d" % (frame_us, step_us))
+        t = machine.twin
+        self.twin = t
+        self.depth = t.attach(0, MS5837Device())
+        self.imu = t.attach(0, LSM6DSOXDevice())
+        self.mag = t.attach(0, LIS3MDLDevice())
+        self.devices = {"depth": self.depth, "imu": self.imu, "mag": self.mag}
+        self.uart = t.uart(UART_ID)
+        self.step_us = step_us
+        self.divider = divider
+        self.files = PowerCutFiles(Files(), 0)
+        self._acc = 0
+        self._steps = []
+        self._k = 0
+        self._hanging = False
+        self._inside = False
+        self.cost_us = 0
+        self.frames = 0
+        self.resets = 0
+        self.power_cuts = 0
+        self.overruns = 0
+        self.max_loop_us = 0
+        self.skipped = 0
+        self.task_errors = 0
+        self.lives = []
+        #: Wall time (us) inside hostlink.request, and between requests (the
+        #: firmware and this emulation), summed over the frames.
+        self.request_us = 0
+        self.board_us = 0
+        self._w_end = 0
+
+    # ------------------------------------------------------------- the hook
+    def hook(self, dt):
+        if self._inside:
+            return  # the twin's own clock readings (UART pacing, the watchdog)
+        self._inside = True
+        cost = self.cost_us
+        if cost:
+            vclock.set_tick_cost_us(0)   # the emulation costs the firmware no time
+        try:
+            self._acc += dt
+            step = self.step_us
+            while self._acc >= step:
+                self._acc -= step
+                self.boundary()
+            self.twin.check_watchdog()
+            while self._hanging:
+                # the loop is stuck: time passes, the world goes on, only the
+                # watchdog can end this (check_watchdog raises BoardReset)
+                vclock.advance(step)
+                self.boundary()
+                self.twin.check_watchdog()
+        finally:
+            self._inside = False
+            if self.cost_us:
+                vclock.set_tick_cost_us(self.cost_us)
+
+    def boundary(self):
+        """A step boundary: the world's inputs for now, asked for at a frame's start."""
+        if self._k >= len(self._steps):
+            self.request()
+        s = self._steps[self._k]
+        self._k += 1
+        self.imu.set_motion(s[0], s[1], s[2], s[3], s[4], s[5])
+        self.mag.set_field(s[6], s[7], s[8])
+        if s[9] is not None:
+            self.depth.set(s[9], s[10])
+        if s[11] is not None:
+            self.twin.set_adc_volts(ADC_CHANNEL, s[11] / self.divider)
+        if s[12] is not None:
+            self.twin.set_pin(LEAK_PIN, s[12])
+
+    def request(self):
+        t = self.twin
+        v = app.vehicle
+        mode = -1
+        active = 0
+        if v is not None and v.modes is not None:
+            mode = v.modes.mode
+            active = v.failsafes.active
+        sent = self.uart.take()
+        w0 = vclock.wall_us()
+        text = hostlink.request("%d %d %d %d %d %d %s" % (
+            t.pulse_ns(SERVO_PINS[0]), t.pulse_ns(SERVO_PINS[1]), t.pulse_ns(SERVO_PINS[2]),
+            t.pulse_ns(SERVO_PINS[3]), mode, active, binascii.hexlify(sent).decode() if sent else ""))
+        w1 = vclock.wall_us()
+        self.request_us += vclock.ticks_diff(w1, w0)
+        if self.frames:
+            self.board_us += vclock.ticks_diff(w0, self._w_end)
+        self._w_end = w1
+        reply = json.loads(text)
+        self.frames += 1
+        self._steps = reply[0]
+        self._k = 0
+        if reply[1]:
+            self.uart.feed(binascii.unhexlify(reply[1]))
+        events = reply[2]
+        if events:
+            for e in events:
+                self.event(e)
+
+    def event(self, e):
+        kind = e[0]
+        if kind == "fault":
+            self.devices[e[1]].set_fault(e[2])
+        elif kind == "cut":
+            f = self.files
+            f.cut_at = f.steps + e[1]
+        elif kind == "hang":
+            self._hanging = True
+        elif kind == "cost":
+            self.cost_us = e[1]   # applied when the hook returns
+        elif kind == "stop":
+            raise Stop()
+        else:
+            raise ValueError("unknown twin event %r" % (kind,))
+
+    # ------------------------------------------------------------- lives
+    def life_ended(self):
+        """Add the counts of the application that just ended."""
+        v = app.vehicle
+        app.vehicle = None
+        if v is None or v.sched is None:
+            return
+        s = v.sched
+        self.overruns += s.overruns
+        self.skipped += s.skipped
+        if s.max_loop_us > self.max_loop_us:
+            self.max_loop_us = s.max_loop_us
+        errors = 0
+        for i in range(len(s.names)):
+            errors += s.task_errors[i]
+        self.task_errors += errors
+        self.lives.append([s.cycles, s.overruns, s.max_loop_us, errors])
+
+    def report(self):
+        return {"frames": self.frames, "resets": self.resets, "power_cuts": self.power_cuts,
+                "overruns": self.overruns, "skipped": self.skipped, "max_loop_us": self.max_loop_us,
+                "task_errors": self.task_errors, "lives": self.lives,
+                "request_us": self.request_us, "board_us": self.board_us}
+
+
+def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, board=None):
+    """Run the firmware in lockstep until the world says stop; the report."""
+    ls = Lockstep(frame_us, step_us, divider)
+    ls.boundary()      # the world's inputs at time 0, before anything runs
+    vclock.set_hook(ls.hook)
+    try:
+        while True:
+            app.vehicle = None
+            try:
+                app.main(board=board, param_path=param_path, fs=ls.files)
+                ls.life_ended()
+                # the application stopped and said why; the board sits at the
+                # REPL while the world goes on
+                while True:
+                    time.sleep_ms(ls.step_us // 1000)
+            except machine.BoardReset:
+                ls.life_ended()
+                ls.resets += 1
+                ls._hanging = False
+                ls.cost_us = 0
+                vclock.set_tick_cost_us(0)
+            except PowerCut:
+                ls.life_ended()
+                ls.power_cuts += 1
+                ls.twin.power_cycle(machine.PWRON_RESET)
+                ls.files = PowerCutFiles(Files(), 0)
+                ls.cost_us = 0
+                vclock.set_tick_cost_us(0)
+    except Stop:
+        ls.life_ended()
+    finally:
+        vclock.set_hook(None)
+        vclock.set_tick_cost_us(0)
+    report = ls.report()
+    hostlink.request("E" + json.dumps(report))
+    return report

@@ -1,0 +1,91 @@
+"""Faults the twin injects at a given time: ``--fault NAME[:ARG]@SECONDS``.
+
+==========================  ==========================================================
+name                        what happens
+==========================  ==========================================================
+``depth-nack``              the MS5837 stops answering (every transfer a NACK)
+``depth-garbage``           it answers with noise
+``depth-stick``             its conversions freeze at their present values
+``imu-nack|garbage|stick``  the same for the LSM6DSOX (accelerometer, gyroscope)
+``mag-nack|garbage|stick``  the same for the LIS3MDL
+``depth-ok``, ``imu-ok``,   the part is healthy again
+``mag-ok``
+``radio-loss``              nothing crosses the radio link, either way
+``radio-corrupt[:P]``       each byte on the link has one bit flipped with
+                            probability P (default 0.05), both ways
+``radio-ok``                the link is clean again
+``battery-sag[:V]``         the pack falls towards V volts (default 6.2) in about a
+                            second: a failing cell
+``leak``                    water at the leak probe
+``powercut[:N]``            the operator changes a parameter (FS_GCS_TIMEOUT + 1 s)
+                            and the power goes at the N-th flash step of the save
+                            that follows (default 3); the board comes back on
+``watchdog``                the loop hangs; the watchdog resets the board
+``overload[:US]``           every clock reading costs US microseconds (default 400):
+                            the loop overruns, and when it overruns for long enough
+                            the watchdog resets the board (which ends the overload)
+==========================  ==========================================================
+
+``parse(text)`` checks a fault and returns a ``Fault``; a bad one is a
+``ValueError`` that names what is wrong and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+SENSORS = ("depth", "imu", "mag")
+#: Sensor fault kinds: ``board/i2c_device.py``'s FAULT_* numbers.
+SENSOR_KINDS = {"ok": 0, "nack": 1, "garbage": 2, "stick": 3}
+NAMES = tuple("%s-%s" % (s, k) for s in SENSORS for k in SENSOR_KINDS) + (
+    "radio-loss", "radio-corrupt", "radio-ok", "battery-sag", "leak", "powercut", "watchdog", "overload")
+#: Faults that take an argument, with its default.
+DEFAULTS = {"radio-corrupt": 0.05, "battery-sag": 6.2, "powercut": 3, "overload": 400}
+
+
+@dataclass(frozen=True)
+class Fault:
+    name: str
+    at_s: float
+    arg: Optional[float] = None
+
+    def __str__(self) -> str:
+        arg = "" if self.arg is None or self.name not in DEFAULTS else ":%g" % self.arg
+        return "%s%s@%g" % (self.name, arg, self.at_s)
+
+
+def parse(text: str) -> Fault:
+    """``NAME[:ARG]@SECONDS`` -> ``Fault``; ValueError naming the problem."""
+    if "@" not in text:
+        raise ValueError("fault %r: expected NAME@SECONDS, e.g. depth-nack@20" % text)
+    head, when = text.rsplit("@", 1)
+    try:
+        at = float(when)
+    except ValueError:
+        raise ValueError("fault %r: %r is not a time in seconds" % (text, when))
+    if not math.isfinite(at) or at < 0:
+        raise ValueError("fault %r: the time must be a finite number of seconds >= 0" % text)
+    name, _, arg_text = head.partition(":")
+    if name not in NAMES:
+        raise ValueError("fault %r: unknown fault %r; known: %s" % (text, name, ", ".join(NAMES)))
+    arg: Optional[float] = None
+    if arg_text:
+        if name not in DEFAULTS:
+            raise ValueError("fault %r: %s takes no argument" % (text, name))
+        try:
+            arg = float(arg_text)
+        except ValueError:
+            raise ValueError("fault %r: argument %r is not a number" % (text, arg_text))
+        if not math.isfinite(arg):
+            raise ValueError("fault %r: argument must be finite" % text)
+        if name == "radio-corrupt" and not 0.0 <= arg <= 1.0:
+            raise ValueError("fault %r: the corruption probability must be within 0..1" % text)
+        if name == "battery-sag" and not 0.0 <= arg <= 20.0:
+            raise ValueError("fault %r: the pack voltage must be within 0..20 V" % text)
+        if name in ("powercut", "overload") and (arg < 1 or arg != int(arg)):
+            raise ValueError("fault %r: %s needs a whole number >= 1" % (text, name))
+    elif name in DEFAULTS:
+        arg = float(DEFAULTS[name])
+    return Fault(name, at, arg)

