@@ -51,14 +51,13 @@ import numpy as np
 
 from roboray.shared import modes as M
 from roboray.sim import estimation as E
-from roboray.sim import kernels
 from roboray.sim.dynamics import Bottom, Model, quat_to_rot
 from roboray.sim.sensors import depth as depth_model
 from roboray.sim.sensors import imu as imu_model
 from roboray.sim.sensors import position_fix
 from roboray.sim.sensors.imu import sample_times
 from roboray.sim.sensors.noise import clip16, quantize
-from roboray.sim.truth import GRAVITY_NED, Truth
+from roboray.sim.truth import GRAVITY_NED, Truth, quaternion_to_matrix
 
 CONTROLLERS = ("cascade", "backstepping")
 FLIGHT_MODES = {"attitude": M.ATTITUDE, "velocity": M.VELOCITY, "target": M.TARGET, "passive": M.PASSIVE}
@@ -279,8 +278,6 @@ class SensorStream:
         if i1 > i0:
             ts = self.tm[i0:i1]
             q = self._quaternions(ts)
-            from roboray.sim.truth import quaternion_to_matrix
-
             earth_body = np.einsum("nji,j->ni", quaternion_to_matrix(q), self._earth)
             ms = self.scenario.imu.mag
             currents = imu_model.servo_currents(_interp(tt, self.wing_rates, ts), ms)
@@ -625,15 +622,13 @@ def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
     cmd = x[:, 13:17].copy()
     # recording
     rec: dict[str, list] = {k: [] for k in ("t", "pos", "vel", "q", "wings", "cmd", "nav", "euler", "sp")}
-    # dynamics buffers for one tick
-    xs = np.empty((steps_per_tick + 1, 1, 17))
-    sds = np.empty((steps_per_tick + 1, 1, 4))
-    nus = np.empty((steps_per_tick + 1, 1, 6))
-    vimu = np.empty((steps_per_tick + 1, 1, 3))
-    dep = np.empty((steps_per_tick + 1, 1))
+    # the dynamics through its public API, one step at a time
+    imu_o = model.imu[0]
+    port_o = model.port[0]
     k_grid = k_release
-    xs[0] = x
-    kernels.record_all(xs[0], cmd, model.T, sds[0], nus[0], vimu[0], dep[0])
+    near_bottom = spec.depth - (params.wing_height + params.plate_side + params.dome_radius)
+    nu = model.velocities(x, model.servo_rate(x[:, 13:17], cmd))[0]
+    v_imu = np.zeros(3)
     landed_at = None
     landing_pos = None
     tick = 0
@@ -650,28 +645,27 @@ def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
             # advance the dynamics to the first grid point at or after the tick
             k_need = int(math.ceil(tk / dt - 1e-9))
             while k_grid < k_need:
-                xs[0] = x
-                kernels.record_all(xs[0], cmd, model.T, sds[0], nus[0], vimu[0], dep[0])
-                kernels.advance(x, cmd, float(dt), steps_per_tick, model.T, xs, sds, nus, vimu, dep)
-                rot = quat_to_rot(xs[1:, 0, 3:7])
-                acc = (vimu[1:, 0] - vimu[:-1, 0]) / dt - GRAVITY_NED
-                f_imu = np.einsum("kji,kj->ki", rot, acc)
-                k0 = k_grid + 1
-                k1 = k0 + steps_per_tick
-                sensors.set_rows(k0, k1, xs[1:, 0, 0:3] + rot @ cb, xs[1:, 0, 3:7], nus[1:, 0, 3:6], f_imu, dep[1:, 0],
-                                 sds[1:, 0])
-                k_grid = k1 - 1
-                if landed_at is None:
-                    touch = model.touching_bottom(xs[1:, 0])
-                    if touch.any():
-                        j = int(np.argmax(touch))
-                        landed_at = t_grid[k0 + j] - spec.hold_s
-                        landing_pos = xs[1 + j, 0, 0:3] + rot[j] @ cb
+                x = model.step(x, cmd, dt)
+                sd = model.servo_rate(x[:, 13:17], cmd)
+                nu = model.velocities(x, sd)[0]
+                rot = _rotation(x[0, 3:7])
+                # the IMU's NED velocity; the accelerometer reads its mean
+                # change over the step less gravity (as simulate() does)
+                v_new = rot @ (nu[:3] + _cross(nu[3:6], imu_o))
+                f_imu = rot.T @ ((v_new - v_imu) / dt - GRAVITY_NED)
+                v_imu = v_new
+                k_grid += 1
+                sensors.set_rows(k_grid, k_grid + 1, x[0, 0:3] + rot @ cb, x[0, 3:7], nu[3:6], f_imu,
+                                 x[0, 2] + rot[2] @ port_o, sd[0])
+                # contact is possible only within a wing's span of the bottom
+                if landed_at is None and x[0, 2] > near_bottom and model.touching_bottom(x)[0]:
+                    landed_at = t_grid[k_grid] - spec.hold_s
+                    landing_pos = x[0, 0:3] + rot @ cb
         if ns is not None:
             ns["feed"](est, feed.events(tick, out))
         if tick % CONTROL_EVERY == 0:
             if spec.truth:
-                est.update(x[0], nus[-1, 0] if released else np.zeros(6), cb)
+                est.update(x[0], nu if released else np.zeros(6), cb)
             flight_mode = mode if released else M.PASSIVE
             t_us = int(E.to_ticks(tk))
             if released or feed.tick_time(tick + CONTROL_EVERY) >= spec.hold_s:
@@ -682,9 +676,9 @@ def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
             cmd[0, :] = out
             if released and control_count % record_every == 0:
                 rec["t"].append(tk - spec.hold_s)
-                rr = quat_to_rot(x[:, 3:7])[0]
+                rr = _rotation(x[0, 3:7])
                 rec["pos"].append(x[0, 0:3] + rr @ cb)
-                rec["vel"].append(rr @ (nus[-1, 0, :3] + np.cross(nus[-1, 0, 3:6], cb)))
+                rec["vel"].append(rr @ (nu[:3] + _cross(nu[3:6], cb)))
                 rec["q"].append(x[0, 3:7].copy())
                 rec["wings"].append(x[0, 13:17].copy())
                 rec["cmd"].append(np.array(out, float))
@@ -703,6 +697,19 @@ def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
                     control_log=control_log)
     flight.metrics = metrics(flight)
     return flight
+
+
+def _rotation(q: np.ndarray) -> np.ndarray:
+    """Body -> NED matrix of one quaternion (``quat_to_rot`` without its
+    batch overhead, which a 200 Hz loop of one vehicle feels)."""
+    w, x, y, z = float(q[0]), float(q[1]), float(q[2]), float(q[3])
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def _single_thread() -> None:

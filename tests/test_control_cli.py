@@ -60,7 +60,7 @@ def test_a_failure_is_one_line_and_exit_1_in_a_real_process():
 
 def test_montecarlo_reports_percentiles(capsys, tmp_path):
     runs = tmp_path / "runs.json"
-    out = run(capsys, "montecarlo", "--runs", "2", "--workers", "2", "--depth", "4", "--distance", "0.8",
+    out = run(capsys, "montecarlo", "--runs", "2", "--workers", "1", "--depth", "3", "--distance", "0.5",
               "--truth", "--runs-out", str(runs), "--json")
     for key in ("landing_error_p50_m", "landing_error_p95_m", "landing_error_worst_m", "runs", "landed"):
         assert key in out, key

@@ -293,7 +293,7 @@ def _plot_thesis(path: str, uncontrolled, run1, still, runs2) -> None:
     ax.plot(still["t"], 0.3 * still["t"], "k:", lw=0.8, label="asked: 0.3 m/s along +y_c")
     for kv2, run in runs2.items():
         ax.plot(run["t"], run["position"][:, 1] - still["position"][:, 1], lw=1.0, label="K_v2 = %g" % kv2)
-    ax.set_ylabel("+y_c displacement vs uncontrolled, m")
+    ax.set_ylabel("+y_c displacement, m")
     ax.set_title("sec. 5.2.2: no spin, K re-weighted (cf. fig. 5.14)", fontsize=9)
     ax.legend(fontsize=7)
     ax = axes[1, 1]
