@@ -27,9 +27,11 @@ bit   failsafe         condition                                        paramete
                        for 1 s, or two of the three innovation test
                        ratios (compass, depth, fix) above FS_EKF_THRESH
 4     depth sensor     driver unhealthy (bus errors, CRC, impossible    FS_SENSOR_ACT          FAILSAFE
-                       values, no fresh conversion) or 8 pressures in
+                       values, no fresh conversion), or 8 pressures in
                        a row refused by the estimator (garbage, or
-                       stuck while the accelerometer says it moves)
+                       stuck while the accelerometer says it moves),
+                       which lasts until the next arming: the estimator
+                       takes a stuck reading back in after a while
 5     IMU              accelerometer/gyroscope driver unhealthy         FS_SENSOR_ACT          FAILSAFE
 6     compass          magnetometer driver unhealthy                    FS_MAG_ACT             warn
 7     max depth        estimated depth beyond FS_DEPTH_MAX (0: off)     FS_DEPTH_ACT           warn
@@ -225,6 +227,7 @@ class Failsafes:
         self._repeat_t = self._t0
         self._repeat_i = 0
         self._seen_ms = [0] * COUNT   # when each condition was last true
+        self._depth_implausible = False
 
     def action(self, i):
         """The configured action of failsafe ``i`` (``ACT_*``)."""
@@ -262,7 +265,9 @@ class Failsafes:
                 c |= 1 << BATTERY
         else:
             self._low_since = -1
-        if not nav.depth.health.healthy() or nav.depth_rejected_run >= DEPTH_REJECTED_MAX:
+        if nav.depth_rejected_run >= DEPTH_REJECTED_MAX:
+            self._depth_implausible = True
+        if not nav.depth.health.healthy() or self._depth_implausible:
             c |= 1 << DEPTH
         if not nav.imu.health.healthy():
             c |= 1 << IMU
@@ -390,7 +395,7 @@ class Failsafes:
             h &= ~(S_GYRO | S_ACCEL)
         if not nav.mag.health.healthy():
             h &= ~S_MAG
-        if not nav.depth.health.healthy() or nav.depth_rejected_run >= DEPTH_REJECTED_MAX:
+        if not nav.depth.health.healthy() or self._depth_implausible:
             h &= ~S_PRESSURE
         status = nav.est.status[0]
         if not status & nv.ATTITUDE_VALID:
@@ -409,8 +414,10 @@ class Failsafes:
             t.sensors_health = h
 
     def on_arm(self):
-        """Armed: a watchdog reset's report has been seen; forget it."""
+        """Armed by the operator: a watchdog reset's report has been seen and
+        a depth sensor caught lying has been looked at; forget both."""
         self._lockup = False
+        self._depth_implausible = False
 
     # ------------------------------------------------------- arming checks
     def arming_check(self):

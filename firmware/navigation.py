@@ -56,12 +56,14 @@ _SURFACE_MAX_M = 1.0
 #: Navigation parameters (shared/params.py declarations), ArduPilot's names where they exist.
 PARAMS = (
     ("AHRS_ORIENTATION", TYPE_UINT8, 8, 0, 14),          # chip axes to body axes (0, 2, .. 14)
+    # the reference vehicle (sim/vehicles/reference.py), from its centre of
+    # buoyancy with the wings flat, 27.1 mm above the plate's centre
     ("INS_POS1_X", TYPE_REAL32, 0.010, -0.5, 0.5),      # m, IMU from the centre of buoyancy
     ("INS_POS1_Y", TYPE_REAL32, 0.005, -0.5, 0.5),
-    ("INS_POS1_Z", TYPE_REAL32, -0.030, -0.5, 0.5),
+    ("INS_POS1_Z", TYPE_REAL32, -0.0029, -0.5, 0.5),
     ("BARO_POS_X", TYPE_REAL32, 0.0, -0.5, 0.5),        # m, pressure port from the centre of buoyancy
     ("BARO_POS_Y", TYPE_REAL32, 0.020, -0.5, 0.5),
-    ("BARO_POS_Z", TYPE_REAL32, -0.004, -0.5, 0.5),
+    ("BARO_POS_Z", TYPE_REAL32, 0.0231, -0.5, 0.5),
     ("BARO_SPEC_GRAV", TYPE_REAL32, 1.0, 0.98, 1.05),   # water's specific gravity (1.0 fresh, 1.024 sea)
     ("BARO1_GND_PRESS", TYPE_REAL32, 101325.0, 50000.0, 120000.0),  # Pa at the surface (set on arming)
     ("COMPASS_OFS_X", TYPE_REAL32, 0.0, -2000.0, 2000.0),  # mGauss, hard iron

@@ -120,10 +120,10 @@ def test_a_ground_station_connects_to_the_twin_through_a_pseudo_terminal():
 
         threading.Thread(target=talk, daemon=True).start()
 
-    r = Twin(Options(scenario="passive-drop", interpreter="cpython", radio="pty", speedup=4.0, duration=14.0),
+    r = Twin(Options(scenario="passive-drop", interpreter="cpython", radio="pty", speedup=6.0, duration=12.0),
              on_radio=ground).run()
     assert ready.wait(30)
     assert "error" not in got, got.get("error")
     assert got["type"] == 12                          # MAV_TYPE_SUBMARINE
     assert got["timeout"] == 5.0
-    assert r["duration_s"] == pytest.approx(14.0, abs=0.05)
+    assert r["duration_s"] == pytest.approx(12.0, abs=0.05)

@@ -171,17 +171,37 @@ def do_bench_sil(args: argparse.Namespace) -> None:
     parts = result["per_frame_us"]
     biggest = max(("firmware_and_emulation", "hostlink_round_trip", "host_world_and_ground"), key=lambda k: parts[k])
     result["limited_by"] = biggest
+    if args.interpreter == "micropython":
+        result.update(_firmware_alone())
 
     def text(r: dict) -> str:
         p = r["per_frame_us"]
-        return ("passive drop on %s: %.1f s simulated in %.1f s, %.1fx real time\n"
-                "per 20 ms frame: %.0f us firmware + emulation, %.0f us hostlink round trip, %.0f us world and "
-                "ground (%.0f us dynamics and sensors); limited by %s"
-                % (r["interpreter"], r["simulated_s"], r["wall_time_s"], r["real_time_factor"],
-                   p["firmware_and_emulation"], p["hostlink_round_trip"], p["host_world_and_ground"],
-                   p["of_which_dynamics_and_sensors"], r["limited_by"]))
+        lines = ["passive drop on %s: %.1f s simulated in %.1f s, %.1fx real time" % (
+                     r["interpreter"], r["simulated_s"], r["wall_time_s"], r["real_time_factor"]),
+                 "per 20 ms frame: %.0f us firmware + emulation, %.0f us hostlink round trip, %.0f us world and "
+                 "ground (%.0f us dynamics and sensors); limited by %s" % (
+                     p["firmware_and_emulation"], p["hostlink_round_trip"], p["host_world_and_ground"],
+                     p["of_which_dynamics_and_sensors"], r["limited_by"])]
+        if "firmware_alone_us_per_slot" in r:
+            lines.append("the firmware alone: %.0f us a 10 ms slot; heap bytes a call: %s" % (
+                r["firmware_alone_us_per_slot"], ", ".join("%s %d" % kv for kv in r["firmware_heap_bytes"].items())))
+        return "\n".join(lines)
 
     emit(args, result, text)
+
+
+def _firmware_alone() -> dict:
+    """The firmware's loop on the wired board without the world or the
+    hostlink: its own time per 10 ms slot here, and each task's heap bytes."""
+    from roboray.sim import twin
+    from roboray.sim.twin import bench
+
+    with twin.interpreter() as mp:
+        bench.build(mp)
+        heap = bench.task_heap(mp)
+        slots = 500
+        mp.exec("v.sched.run(%d)" % slots)
+        return {"firmware_alone_us_per_slot": round(mp.last_us / slots, 1), "firmware_heap_bytes": heap}
 
 
 def register(sub, bench) -> None:

@@ -19,10 +19,11 @@ def plot(twin: Any, report: dict, out_png: str) -> None:
     truth = twin.world.truth()
     t = truth["t"]
     x = truth["x"]
+    cb = truth["cb"]
     est = np.array(twin.ground.seen.positions) if twin.ground.seen.positions else np.zeros((0, 7))
     fig, axes = plt.subplots(2, 2, figsize=(11, 8))
     ax = axes[0, 0]
-    ax.plot(x[:, 1], x[:, 0], color="C0", label="true track (O)")
+    ax.plot(cb[:, 1], cb[:, 0], color="C0", label="true track (centre of buoyancy)")
     if len(est):
         ax.plot(est[:, 2], est[:, 1], ".", ms=2, color="C1", label="vehicle's estimate (LOCAL_POSITION_NED)")
     if report.get("target") is not None:
@@ -42,7 +43,7 @@ def plot(twin: Any, report: dict, out_png: str) -> None:
     ax.set_title("top view")
 
     ax = axes[0, 1]
-    ax.plot(t, x[:, 2], color="C0", label="true depth of O")
+    ax.plot(t, cb[:, 2], color="C0", label="true depth (centre of buoyancy)")
     if len(est):
         ax.plot(est[:, 0], est[:, 3], ".", ms=2, color="C1", label="estimate")
     ax.axhline(report["bottom_depth_m"], color="k", lw=0.8, ls="--", label="bottom")

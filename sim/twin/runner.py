@@ -51,8 +51,6 @@ import numpy as np
 from roboray.sim.twin import faults as faults_mod
 from roboray.sim.twin import scenarios
 from roboray.sim.twin.ground import MODES, Action, Framer, Ground
-from roboray.sim.twin.world import World, WorldSpec
-
 log = logging.getLogger("roboray.sim.twin")
 
 FRAME_US = 20000
@@ -199,7 +197,7 @@ class Twin:
                  on_radio: Optional[Callable[[Any], None]] = None) -> None:
         from roboray.firmware import app
         from roboray.firmware.param_store import encode
-        from roboray.shared.params import ERRORS, ParamTable
+        from roboray.shared.params import ParamTable
         from roboray.sim.twin.radio import parse_radio
         from roboray.sim.vehicle import load_params
 
@@ -209,23 +207,20 @@ class Twin:
         if options.speedup is not None and not options.speedup > 0:
             raise ValueError("--speedup %r must be > 0" % options.speedup)
         self.scenario = scenarios.make(options.scenario, options.depth, options.target, options.duration)
+        # the firmware's parameter table, as the board will load it; the
+        # user's settings are checked before anything heavy is built
+        table = ParamTable(app.PARAMS)
+        for name, value in options.params.items():
+            self._set(table, name, value)
+        self.radio = parse_radio(options.radio)
+        from roboray.sim.twin.world import World, WorldSpec
+
         params = load_params(options.vehicle).with_water(options.water)
         spec = WorldSpec(bottom_depth=self.scenario.bottom_depth)
         self.world = World(params, spec, options.seed, steps_per_frame=FRAME_US // STEP_US)
-        # the firmware's parameter table, as the board will load it
-        table = ParamTable(app.PARAMS)
-        settings = dict(self.world.compass_params())
-        settings.update(options.params)
-        for name, value in settings.items():
-            i = table.index(name)
-            if i < 0:
-                raise ValueError("--param %s: the firmware has no such parameter" % name)
-            if table.type(i) != 9 and value == int(value):
-                value = int(value)
-            err = table.set(i, value)
-            if err:
-                raise ValueError("--param %s=%g: %s (allowed %g..%g)" % (name, value, ERRORS[err],
-                                                                           table.minimum(i), table.maximum(i)))
+        for name, value in self.world.compass_params().items():
+            if name not in options.params:   # what a calibration of this seed's compass stored
+                self._set(table, name, value)
         self.table = table
         self._param_image = encode(table)
         self._servo = []
@@ -239,7 +234,6 @@ class Twin:
         self._wings = np.zeros(4)
         self.faults = sorted(options.faults, key=lambda f: f.at_s)
         self._fault_i = 0
-        self.radio = parse_radio(options.radio)
         if self.radio is not None and on_radio is not None:
             on_radio(self.radio)
         self._framer = Framer()
@@ -268,6 +262,20 @@ class Twin:
         self.board: Any = None
         self.bytes_up = 0
         self.bytes_down = 0
+
+    @staticmethod
+    def _set(table: Any, name: str, value: float) -> None:
+        from roboray.shared.params import ERRORS, TYPE_REAL32
+
+        i = table.index(name)
+        if i < 0:
+            raise ValueError("--param %s: the firmware has no such parameter" % name)
+        if table.type(i) != TYPE_REAL32 and value == int(value):
+            value = int(value)
+        err = table.set(i, value)
+        if err:
+            raise ValueError("--param %s=%g: %s (allowed %g..%g)" % (name, value, ERRORS[err],
+                                                                       table.minimum(i), table.maximum(i)))
 
     # ------------------------------------------------------------ requests
     def _on_request(self, text: str) -> str:
@@ -476,9 +484,31 @@ class Twin:
             report["target"] = list(s.target)
             report["landing_error_m"] = (math.hypot(w.landing_ne[0] - s.target[0], w.landing_ne[1] - s.target[1])
                                          if w.landing_ne is not None else None)
+        if s.velocity is not None:
+            report["velocity_set_point"] = list(s.velocity)
+            report.update(self._velocity_error())
         if self.options.tlog:
             report["tlog"] = self.options.tlog
         return report
+
+    def _velocity_error(self) -> dict:
+        """Horizontal velocity of the centre of buoyancy against the set point,
+        from 10 s after the release to the landing (1 s differences)."""
+        w = self.world
+        if w.released_at is None:
+            return {"velocity_rms_error_mps": None}
+        truth = w.truth()
+        t, cb = truth["t"], truth["cb"]
+        end = w.landed_at if w.landed_at is not None else t[-1]
+        keep = np.flatnonzero((t >= w.released_at + 10.0) & (t <= end))
+        lag = int(round(1.0 / (FRAME_US * 1e-6)))
+        keep = keep[keep >= lag]
+        if len(keep) == 0:
+            return {"velocity_rms_error_mps": None}
+        v = (cb[keep, :2] - cb[keep - lag, :2]) / (t[keep] - t[keep - lag])[:, None]
+        err = v - np.asarray(self.scenario.velocity[:2])[None, :]
+        return {"velocity_rms_error_mps": float(np.sqrt(np.mean(np.sum(err * err, axis=1)))),
+                "velocity_mean_mps": [float(x) for x in v.mean(axis=0)]}
 
 
 def _union(values) -> int:

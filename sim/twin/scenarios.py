@@ -14,8 +14,8 @@ name                what it shows
                     the bottom; ends 2 s after landing
 ``target-landing``  TARGET: land on a target 2 m north of the release point
                     from 10 m (``--target``, ``--depth``); needs the controller
-``velocity``        VELOCITY: 0.10 m/s north at 0.35 m/s descent; needs the
-                    controller; ends 2 s after landing
+``velocity``        VELOCITY: 0.10 m/s north (no descent-speed command);
+                    needs the controller; ends 2 s after landing
 ``bottom-rest``     a PASSIVE drop in 1 m of water, then resting on the bottom
                     until ``--duration`` (default 610 s: ten minutes resting)
 ==================  ==========================================================
@@ -72,7 +72,7 @@ def make(name: str, depth: Optional[float] = None, target: Optional[tuple] = Non
     elif name == "target-landing":
         s = Scenario(name, 10.0, 150.0, 2.0, "TARGET", True, target=(2.0, 0.0))
     elif name == "velocity":
-        s = Scenario(name, 10.0, 120.0, 2.0, "VELOCITY", True, velocity=(0.10, 0.0, 0.35))
+        s = Scenario(name, 10.0, 120.0, 2.0, "VELOCITY", True, velocity=(0.10, 0.0, 0.0))
     elif name == "bottom-rest":
         s = Scenario(name, 1.0, 610.0, None, "PASSIVE", False)
     else:

@@ -11,7 +11,9 @@ soft iron, the servos' field, pressure offset and temperature coefficient)
 are the sensor models' of ``sim/sensors/``, whose specifications
 (``ImuSpec``, ``MS5837Spec``, ``Water``, ``TrackerSpec``) and formulas this
 module applies sample by sample instead of to a whole recorded ``Truth``.
-Truth outputs are computed as ``sim/simulate.py`` computes them: the
+Positions are the centre of buoyancy's (flat wings), the point the
+tracker measures and the estimator reports, as ``sim/flight.py`` refers
+them. Truth outputs are computed as ``sim/simulate.py`` computes them: the
 specific force at the IMU is the change of the IMU point's NED velocity
 over the step less gravity (``kernels.advance`` records that velocity and
 the pressure port's depth), the gyroscope reads the body rates.
@@ -196,6 +198,9 @@ class World:
         self.released_at: Optional[float] = None
         self.landed_at: Optional[float] = None
         self.landing_ne: Optional[tuple] = None
+        #: The centre of buoyancy with the wings flat, in the body frame from
+        #: O: the point the tracker measures and the estimator reports.
+        self.cb = np.asarray(self.model.vehicles[0].centre_of_buoyancy(np.zeros(4)), float)
         self.held = True
         n1 = steps_per_frame + 1
         self._xs = np.zeros((n1, 1, 17))
@@ -357,7 +362,8 @@ class World:
         if not self.held and self.landed_at is None and self.x[0, 2] > self.spec.bottom_depth - 0.4:
             if self.model.touching_bottom(self.x)[0]:
                 self.landed_at = self.t
-                self.landing_ne = (float(self.x[0, 0]), float(self.x[0, 1]))
+                c = self.cb_position(self.x[0])
+                self.landing_ne = (float(c[0]), float(c[1]))
         rows = self._sense(t0, n)
         self._track(t0, n)
         return rows
@@ -417,7 +423,7 @@ class World:
                 continue
             # where O was at tm, between the frame's steps
             frac = min(max((tm - t0) / (n * STEP_S), 0.0), 1.0)
-            ne = (1.0 - frac) * self._xs[0, 0, 0:2] + frac * self._xs[n, 0, 0:2]
+            ne = (1.0 - frac) * self.cb_position(self._xs[0, 0])[:2] + frac * self.cb_position(self._xs[n, 0])[:2]
             arrival = tm + tr.latency_s + (2.0 * draws[1] - 1.0) * tr.latency_jitter_s
             self.fixes.append((arrival, tm, float(ne[0] + noise[0]), float(ne[1] + noise[1])))
 
@@ -431,6 +437,18 @@ class World:
         return out
 
     # ------------------------------------------------------------ truth
+    def cb_position(self, x: np.ndarray) -> np.ndarray:
+        """NED position of the centre of buoyancy (flat wings) for a state (17,)."""
+        w, a, b, c = x[3:7]
+        cb = self.cb
+        rot = np.array([[1 - 2 * (b * b + c * c), 2 * (a * b - w * c), 2 * (a * c + w * b)],
+                        [2 * (a * b + w * c), 1 - 2 * (a * a + c * c), 2 * (b * c - w * a)],
+                        [2 * (a * c - w * b), 2 * (b * c + w * a), 1 - 2 * (a * a + b * b)]])
+        return x[0:3] + rot @ cb
+
     def truth(self) -> dict[str, np.ndarray]:
-        """The frames so far: ``t`` (s), ``x`` (K, 17) states, ``cmd`` (K, 4)."""
-        return {"t": np.array(self.log_t), "x": np.array(self.log_x), "cmd": np.array(self.log_cmd)}
+        """The frames so far: ``t`` (s), ``x`` (K, 17) states, ``cb`` (K, 3) the
+        centre of buoyancy's position, ``cmd`` (K, 4)."""
+        x = np.array(self.log_x).reshape(-1, 17)
+        return {"t": np.array(self.log_t), "x": x, "cb": np.array([self.cb_position(r) for r in x]).reshape(-1, 3),
+                "cmd": np.array(self.log_cmd)}

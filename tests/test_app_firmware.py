@@ -1,0 +1,124 @@
+"""The application's flight layer on MicroPython, on a wired emulated board.
+
+No world here (``sim/twin/bench.py``: a vehicle at rest under the surface):
+the loop's tasks, the arming and mode checks, the ground's velocity set
+points and reboot, a bad mounting parameter at boot, and the heap each task
+allocates (held to the figures ``roboray-sim bench sil`` prints).
+"""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
+
+from roboray.firmware import app  # noqa: E402
+from roboray.firmware.param_store import encode  # noqa: E402
+from roboray.shared.params import ParamTable  # noqa: E402
+from roboray.sim import twin  # noqa: E402
+from roboray.sim.twin import bench  # noqa: E402
+
+PARAMS = "/tmp/bench_params.bin"
+
+#: Heap bytes one call may allocate (roboray-sim bench sil --json, "firmware_heap_bytes").
+HEAP = {"nav": 4096, "link": 2048, "depth": 0, "control": 512, "failsafes": 256, "telemetry": 320}
+
+
+@pytest.fixture(scope="module")
+def board():
+    mp = twin.interpreter()
+    yield mp
+    mp.close()
+
+
+@pytest.fixture
+def mp(board):
+    twin.reset(board)
+    board.exec("import os\ntry:\n    os.remove(%r)\nexcept OSError:\n    pass\n" % PARAMS)
+    return board
+
+
+def test_the_loop_runs_seven_tasks_and_the_estimator_settles_at_rest(mp):
+    bench.build(mp, PARAMS)
+    assert mp.eval("v.sched.names") == ["nav", "link", "depth", "control", "leak", "battery", "params"]
+    mp.exec("v.sched.run(1200)")
+    assert mp.eval("v.nav.valid(0x30)") is True            # attitude and depth valid
+    # 101800 Pa: the port 48.4 mm deep, the centre of buoyancy 23.1 mm above it
+    assert mp.eval("v.nav.est.nav[0]") == pytest.approx(0.0253, abs=0.003)
+    assert mp.eval("v.failsafes.active") == 0
+    assert mp.eval("v.sched.overruns") == 0 and mp.eval("sum(v.sched.task_errors)") == 0
+
+
+def test_arming_waits_for_the_estimator_and_lands_in_passive(mp):
+    bench.build(mp, PARAMS)
+    mp.exec("v.sched.run(100)")
+    assert mp.eval("v.modes.arm()") == [False, "no attitude estimate"]
+    mp.exec("v.sched.run(1100)")
+    assert mp.eval("v.modes.arm()") == [True, "ok"]
+    mp.exec("v.sched.run(50)")
+    assert mp.eval("v.modes.mode") == 1                     # PASSIVE
+    # PASSIVE_WING_DEG 45 on every wing: 1500 us between SERVOn_MIN 1000 and MAX 2000
+    assert mp.eval("[t.pulse_ns(p) // 1000 for p in (10, 11, 12, 13)]") == [1500] * 4
+    assert mp.eval("v.params.get(v.params.index('BARO1_GND_PRESS'))") == pytest.approx(101800.0, abs=30.0)
+
+
+@pytest.mark.skipif(app.control_mod is None, reason="the controller (shared/control) is not in this firmware yet")
+def test_controlled_modes_need_the_estimates_and_the_target_they_use(mp):
+    bench.build(mp, PARAMS)
+    mp.exec("v.sched.run(1200)\nv.modes.arm()\nv.sched.run(10)")
+    assert mp.eval("v.modes.request(4)") == [False, "no position estimate"]
+    # fixes from the tracker relay (at rest at the release point)
+    mp.exec("for _ in range(5):\n    v.nav.fix(0.0, 0.0)\n    v.sched.run(100)\n")
+    assert mp.eval("v.modes.request(4)") == [False, "no target set"]
+    mp.exec("v.telemetry.has_target = True")
+    assert mp.eval("v.modes.request(4)") == [True, "ok"]
+    assert mp.eval("v.modes.request(3)") == [True, "ok"]    # VELOCITY
+
+
+def test_without_a_controller_the_controlled_modes_are_refused_with_a_reason(mp):
+    bench.build(mp, PARAMS)
+    mp.exec("v.sched.run(1200)\nv.modes.arm()\nv.failsafes.has_controller = False\n"
+            "sent = []\nv.failsafes.link = type('L', (), {'send_text': lambda s, sev, text: sent.append(text),"
+            " 'gcs_last_ms': -1, 'now_ms': 0})()")
+    assert mp.eval("v.modes.request(2)") == [False, "pre-arm check failed"]
+    assert mp.eval("sent") == ["no controller in this firmware"]
+
+
+def test_a_velocity_set_point_from_the_ground_reaches_the_endpoint(mp):
+    bench.build(mp, PARAMS)
+    ground = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+    frame = mavlink.MAVLink_set_position_target_local_ned_message(
+        0, 1, 1, mavlink.MAV_FRAME_LOCAL_NED, 0x0DC7, 0, 0, 0, 0.1, -0.05, 0.3, 0, 0, 0, 0, 0).pack(ground)
+    mp.exec("t.uart(0).feed(%r)\nv.sched.run(20)" % frame)
+    assert mp.eval("v.link.ep.velocity_count") == 1
+    assert mp.eval("list(v.link.ep.velocity_ned)") == pytest.approx([0.1, -0.05, 0.3], abs=1e-6)
+    assert mp.eval("v.link.ep.target_count") == 0           # velocity bits only: not a position target
+
+
+def test_a_reboot_from_the_ground_saves_and_resets_the_board(mp):
+    bench.build(mp, PARAMS)
+    mp.exec("v.sched.run(10)\nv.params.set_by_name('SR_STATUS', 2.0)\nv.link.ep.reboot_requested = True\n"
+            "try:\n    v.link.step()\nexcept machine.BoardReset as e:\n    cause = e.cause\n")
+    assert mp.eval("cause") == mp.eval("machine.WDT_RESET")
+    assert mp.eval("v.store.saves") == 1                     # the change was saved before the reset
+
+
+def test_an_unsupported_mounting_stops_the_start_with_its_reason(mp):
+    table = ParamTable(app.PARAMS)
+    table.set_by_name("AHRS_ORIENTATION", 3)                 # yaw 135: not a quarter turn
+    mp.write_file(PARAMS, encode(table))
+    mp.exec(bench.SETUP)
+    out = mp.exec("rc = app.main(cycles=10, param_path=%r)" % PARAMS)
+    assert mp.eval("rc") == 1
+    assert "navigation: AHRS_ORIENTATION 3 is not supported" in out
+    assert out.splitlines()[-1].startswith("stopped:")
+
+
+def test_each_task_allocates_within_its_figure(mp):
+    bench.build(mp, PARAMS)
+    heap = bench.task_heap(mp)
+    for name, limit in HEAP.items():
+        assert heap[name] <= limit, (name, heap[name])
