@@ -86,16 +86,27 @@ class LIS3MDLDevice(RegisterDevice):
         return _LSB_PER_GAUSS[(self.regs[_CTRL_REG2] >> 5) & 3]
 
     def _quantise(self):
+        # both byte orders, written out (the twin calls this every step)
         p = self._phys
         r = self._raw
         r[0] = clamp_s16((p[0] - 25.0) * 8.0)
         k = self.lsb_per_gauss()
-        for i in range(1, 4):
-            r[i] = clamp_s16(p[i] * k)
-        for be in (0, 1):
-            for i in range(3):
-                self._put(self._field[be], 2 * i, r[1 + i], be)
-            self._put(self._temp[be], 0, r[0], be)
+        r[1] = clamp_s16(p[1] * k)
+        r[2] = clamp_s16(p[2] * k)
+        r[3] = clamp_s16(p[3] * k)
+        le, be = self._field
+        for i in range(3):
+            v = r[1 + i]
+            lo = v & 0xFF
+            hi = (v >> 8) & 0xFF
+            le[2 * i] = lo
+            le[2 * i + 1] = hi
+            be[2 * i] = hi
+            be[2 * i + 1] = lo
+        v = r[0]
+        le, be = self._temp
+        le[0] = be[1] = v & 0xFF
+        le[1] = be[0] = (v >> 8) & 0xFF
 
     def _period_us(self):
         md = self.regs[_CTRL_REG3] & 3
@@ -134,15 +145,6 @@ class LIS3MDLDevice(RegisterDevice):
         period = self._period_us()
         if period and (not was or reg == _CTRL_REG3):
             self._next = self.clock.ticks_add(self.clock.ticks_us(), period)
-
-    @staticmethod
-    def _put(buf, at, value, big_endian):
-        if big_endian:
-            buf[at] = (value >> 8) & 0xFF
-            buf[at + 1] = value & 0xFF
-        else:
-            buf[at] = value & 0xFF
-            buf[at + 1] = (value >> 8) & 0xFF
 
     def _sync(self):
         period = self._period_us()

@@ -101,7 +101,9 @@ class LSM6DSOXDevice(RegisterDevice):
         self._quantise()
 
     def set_motion(self, ax, ay, az, gx, gy, gz):
-        """``set_accel`` and ``set_gyro`` at once (one quantisation: the twin's step)."""
+        """``set_accel`` and ``set_gyro`` at once: the twin's step, so the
+        same quantisation as ``_quantise`` written out, the temperature left
+        as it is."""
         p = self._phys
         p[1] = gx
         p[2] = gy
@@ -109,7 +111,25 @@ class LSM6DSOXDevice(RegisterDevice):
         p[4] = ax
         p[5] = ay
         p[6] = az
-        self._quantise()
+        r = self._raw
+        g = self.gyro_lsb()
+        a = self.accel_lsb()
+        r[1] = clamp_s16(gx / g)
+        r[2] = clamp_s16(gy / g)
+        r[3] = clamp_s16(gz / g)
+        r[4] = clamp_s16(ax / a)
+        r[5] = clamp_s16(ay / a)
+        r[6] = clamp_s16(az / a)
+        b = self._gyro
+        for i in range(3):
+            v = r[1 + i]
+            b[2 * i] = v & 0xFF
+            b[2 * i + 1] = (v >> 8) & 0xFF
+        b = self._accel
+        for i in range(3):
+            v = r[4 + i]
+            b[2 * i] = v & 0xFF
+            b[2 * i + 1] = (v >> 8) & 0xFF
 
     def accel_lsb(self):
         """m/s^2 per LSB at the configured full scale."""
