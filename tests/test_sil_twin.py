@@ -127,3 +127,19 @@ def test_a_ground_station_connects_to_the_twin_through_a_pseudo_terminal():
     assert got["type"] == 12                          # MAV_TYPE_SUBMARINE
     assert got["timeout"] == 5.0
     assert r["duration_s"] == pytest.approx(12.0, abs=0.05)
+
+
+def test_a_crashing_application_prints_its_traceback_and_the_watchdog_restarts_it(board):
+    # as on the board: main.py raises, the traceback goes to the console, the
+    # board sits at the REPL until the watchdog it had started resets it
+    board.exec("import machine\nimport roboray.firmware.app as app\n__real_main = app.main\n"
+               "def __crashing(**kw):\n    machine.WDT(timeout=1000)\n    return 1 // 0\n")
+    try:
+        board.exec("app.main = __crashing")
+        r = run(Options(scenario="passive-drop", duration=3.5), interpreter=board)
+    finally:
+        board.exec("app.main = __real_main")
+    # crashes at 0, 1, 2 and 3 s, each reset by the watchdog a second later
+    assert r["crashes"] == 4 and r["resets"] == 3
+    assert sum("ZeroDivisionError" in line for line in r["console"]) == 4
+    assert r["released_at_s"] is None

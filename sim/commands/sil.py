@@ -76,6 +76,17 @@ def _twin(args: argparse.Namespace, **kwargs):
         raise CliError("--radio %s: %s" % (args.radio, exc))
 
 
+def _run(twin) -> dict:
+    from roboray.tools.micropython import InterpreterDied, MicroPythonError
+
+    try:
+        return twin.run()
+    except MicroPythonError as exc:
+        raise CliError("the twin stopped: %s" % exc.traceback.splitlines()[-1])
+    except (InterpreterDied, RuntimeError) as exc:
+        raise CliError("the twin stopped: %s" % str(exc).splitlines()[0])
+
+
 def _announce(radio) -> None:
     dev = getattr(radio, "device", None)
     if dev is not None:
@@ -89,7 +100,7 @@ def do_sil(args: argparse.Namespace) -> None:
     twin = _twin(args, on_radio=_announce)
     log.info("scenario %s, seed %d, firmware on %s, %s", args.scenario, args.seed, args.interpreter,
              "as fast as possible" if args.speedup is None else "%gx real time" % args.speedup)
-    report = twin.run()
+    report = _run(twin)
     console = report.pop("console")
     for line in console:
         log.debug("board: %s", line)
@@ -143,7 +154,7 @@ def do_bench_sil(args: argparse.Namespace) -> None:
     args.vehicle = None
     args.water = "fresh"
     twin = _twin(args)
-    report = twin.run()
+    report = _run(twin)
     b = twin.board_report
     frames = max(int(b.get("frames", 0)), 1)
     host_us = report["host_wall_s"] * 1e6 / frames

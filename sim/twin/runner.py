@@ -460,6 +460,7 @@ class Twin:
             "max_loop_ms": br["max_loop_us"] / 1000.0 if "max_loop_us" in br else None,
             "resets": br.get("resets"),
             "power_cuts": br.get("power_cuts"),
+            "crashes": br.get("crashes"),
             "task_errors": br.get("task_errors"),
             "failsafes": self.failsafe_log,
             "failsafes_cleared": self.cleared_log,

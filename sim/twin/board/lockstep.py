@@ -29,7 +29,9 @@ time, 20 ms: one servo frame) it makes one ``hostlink.request``:
 
 A reset (watchdog, ``machine.reset()``, a power cut) ends the application
 with a ``BaseException`` the firmware cannot catch; the runner power-cycles
-what the reset cuts and starts ``main()`` again. The world goes on
+what the reset cuts and starts ``main()`` again. An application that
+crashes prints its traceback and leaves the board at the REPL, as on the
+board, until its watchdog resets it. The world goes on
 meanwhile, and so does the virtual clock: the sensors keep their own time
 and the firmware never relies on ticks starting at 0. At the end the
 runner reports its counts with one last request, ``"E" + JSON``.
@@ -37,6 +39,7 @@ runner reports its counts with one last request, ``"E" + JSON``.
 
 import binascii
 import json
+import sys
 
 import hostlink
 import machine
@@ -85,6 +88,7 @@ class Lockstep:
         self.frames = 0
         self.resets = 0
         self.power_cuts = 0
+        self.crashes = 0
         self.overruns = 0
         self.max_loop_us = 0
         self.skipped = 0
@@ -202,9 +206,19 @@ class Lockstep:
 
     def report(self):
         return {"frames": self.frames, "resets": self.resets, "power_cuts": self.power_cuts,
+                "crashes": self.crashes,
                 "overruns": self.overruns, "skipped": self.skipped, "max_loop_us": self.max_loop_us,
                 "task_errors": self.task_errors, "lives": self.lives,
                 "request_us": self.request_us, "board_us": self.board_us}
+
+
+def _print_exception(e):
+    pe = getattr(sys, "print_exception", None)
+    if pe is not None:
+        pe(e)
+    else:  # CPython
+        import traceback
+        traceback.print_exception(type(e), e, e.__traceback__, file=sys.stdout)
 
 
 def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, board=None):
@@ -228,6 +242,19 @@ def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, bo
                 ls._hanging = False
                 ls.cost_us = 0
                 vclock.set_tick_cost_us(0)
+            except Exception as e:  # noqa: BLE001 - the application crashed
+                # as on the board: the traceback on the console, the REPL,
+                # and the watchdog (if the loop had started it) resets the
+                # board a second later
+                _print_exception(e)
+                ls.life_ended()
+                ls.crashes += 1
+                try:
+                    while True:
+                        time.sleep_ms(ls.step_us // 1000)
+                except machine.BoardReset:
+                    ls.resets += 1
+                    ls._hanging = False
             except PowerCut:
                 ls.life_ended()
                 ls.power_cuts += 1
