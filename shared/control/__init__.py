@@ -51,6 +51,7 @@ Cost on MicroPython: ``roboray-sim bench control`` prints the heap bytes and
 time of a step; the tests hold the cascade to that figure.
 """
 
+from roboray.shared.control.backstepping import BacksteppingController
 from roboray.shared.control.cascade import Controller
 
-__all__ = ["Controller"]
+__all__ = ["Controller", "BacksteppingController"]

@@ -14,8 +14,8 @@ the diagonal) maps any direction into that octant and the harmonic family
 maps back by turning psi alike, so no wing relabelling is needed.
 
 Lookup in fixed arrays: A trilinear in (fold, direction, ratio), psi
-bilinear from the nearer fold row; a call boxes 50 to 80 floats on a
-board and allocates nothing else.
+bilinear from the nearer fold row; a call boxes 56 floats on a fold row
+(the default) and 85 between two on a board, and allocates nothing else.
 """
 
 import math

@@ -79,8 +79,9 @@ def _fly_text(r: dict) -> str:
         else:
             lines.append("did not reach the bottom in %.1f s" % r["descent_time_s"])
     if r.get("velocity_rms_error_mps") is not None:
-        lines.append("velocity error %.4f m/s RMS after settling (mean %.3f, %.3f m/s)" % (
-            r["velocity_rms_error_mps"], *r["velocity_mean_mps"]))
+        lines.append("velocity error %.4f m/s RMS %s (mean %.3f, %.3f m/s)" % (
+            r["velocity_rms_error_mps"], "after settling" if r["settling_time_s"] is not None else
+            "over the second half (never settled)", *r["velocity_mean_mps"]))
     if r.get("descent_speed_error") is not None:
         lines.append("descent speed %.3f m/s (%+.1f %% of the command)" % (
             r["descent_speed_mps"], 100 * r["descent_speed_error"]))
