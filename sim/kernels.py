@@ -449,16 +449,15 @@ def rk4_one(v, x, cmd, dt, T, S, ks, out):
         out[j] /= nq
 
 
-@njit(parallel=True, **_JIT)
+@njit(**_JIT)
 def rk4(x, cmd, dt, T, out):
-    """One RK4 step of every vehicle (parallel over vehicles)."""
-    n = x.shape[0]
-    shared = T[0].shape[0] == 1
-    for m in prange(n):
-        v = np.int64(0) if shared else np.int64(m)  # prange's index is unsigned
-        S = _scratch()
-        ks = np.empty((7, 17))
-        rk4_one(v, x[m], cmd[m], dt, T, S, ks, out[m])
+    """One RK4 step of every vehicle. Serial: it is the step of one vehicle
+    in lockstep with a controller or the twin (batches go through
+    ``advance``, parallel and with scratch made once per vehicle)."""
+    S = _scratch()
+    ks = np.empty((7, 17))
+    for m in range(x.shape[0]):
+        rk4_one(table_of(T, m), x[m], cmd[m], dt, T, S, ks, out[m])
 
 
 @njit(**_JIT)

@@ -25,6 +25,25 @@ def micropython():
     mp.close()
 
 
+def pytest_sessionstart(session):
+    """Compile the dynamics kernels once, in the controlling process, before
+    pytest-xdist starts its workers: numba caches them on disk, so the
+    workers load them instead of each compiling them (about 30 s)."""
+    if hasattr(session.config, "workerinput"):
+        return  # an xdist worker: the controller has compiled them
+    import numpy as np
+
+    from roboray.sim.dynamics import Model
+    from roboray.sim.simulate import simulate
+
+    model = Model(None)
+    x0 = model.state(velocity=(0.0, 0.0, 0.3))
+    model.step(x0, x0[:, 13:17], 0.01)
+    model.rhs(x0, x0[:, 13:17])
+    simulate(model, x0, 0.02, dt=0.01)
+    model.body_rhs(x0, np.zeros((1, 4)))
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if "micropython" in getattr(item, "fixturenames", ()):
