@@ -42,13 +42,14 @@ Run: ``python -m roboray.tools.gen_allocation [--check] [--out PATH] [--vehicle 
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
+
+from roboray.tools.generated import generator_main
 
 #: Mean folds (deg) of the table's rows: below 30 deg the glide turns to
 #: the other side (c = 15: away from the folded wing) and the authority
@@ -247,26 +248,7 @@ def generate(params=None, source: str = "sim/vehicles/reference.py") -> str:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog="gen_allocation", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=default_out())
-    parser.add_argument("--vehicle", type=Path, default=None, help="a copy of sim/vehicles/reference.py")
-    parser.add_argument("--check", action="store_true", help="exit 1 if the committed file differs")
-    args = parser.parse_args(argv)
-    params = None
-    source = "sim/vehicles/reference.py"
-    if args.vehicle is not None:
-        from roboray.sim.vehicle import load_params
-
-        params = load_params(args.vehicle)
-        source = args.vehicle.name
-    text = generate(params, source)
-    if args.check:
-        same = args.out.exists() and args.out.read_text() == text
-        print("%s is %s" % (args.out, "up to date" if same else "out of date"))
-        return 0 if same else 1
-    args.out.write_text(text)
-    print("wrote %s" % args.out)
-    return 0
+    return generator_main("gen_allocation", __doc__.splitlines()[0], generate, default_out(), argv)
 
 
 if __name__ == "__main__":
