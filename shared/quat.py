@@ -137,3 +137,32 @@ def tilt(q):
     elif c < -1.0:
         c = -1.0
     return math.acos(c)
+
+
+def to_matrix(R, q):
+    """R (9, row major) = the rotation of unit q, body -> NED: 24 boxed floats."""
+    w = q[0]
+    x = q[1]
+    y = q[2]
+    z = q[3]
+    x2 = x + x
+    y2 = y + y
+    z2 = z + z
+    xx = x * x2
+    yy = y * y2
+    zz = z * z2
+    xy = x * y2
+    xz = x * z2
+    yz = y * z2
+    wx = w * x2
+    wy = w * y2
+    wz = w * z2
+    R[0] = 1.0 - (yy + zz)
+    R[1] = xy - wz
+    R[2] = xz + wy
+    R[3] = xy + wz
+    R[4] = 1.0 - (xx + zz)
+    R[5] = yz - wx
+    R[6] = xz - wy
+    R[7] = yz + wx
+    R[8] = 1.0 - (xx + yy)

@@ -365,30 +365,4 @@ class Attitude:
     # --------------------------------------------------------------- helpers
     def _rotation(self):
         """R from q (assumed unit), row-major: 24 boxed floats."""
-        q = self.q
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
-        x2 = x + x
-        y2 = y + y
-        z2 = z + z
-        xx = x * x2
-        yy = y * y2
-        zz = z * z2
-        xy = x * y2
-        xz = x * z2
-        yz = y * z2
-        wx = w * x2
-        wy = w * y2
-        wz = w * z2
-        R = self.R
-        R[0] = 1.0 - (yy + zz)
-        R[1] = xy - wz
-        R[2] = xz + wy
-        R[3] = xy + wz
-        R[4] = 1.0 - (xx + zz)
-        R[5] = yz - wx
-        R[6] = xz - wy
-        R[7] = yz + wx
-        R[8] = 1.0 - (xx + yy)
+        quat.to_matrix(self.R, self.q)

@@ -26,6 +26,7 @@ step budget on its own). The firmware flies the Mahony filter.
 import math
 
 from roboray.shared import quat
+from roboray.shared.estimator.attitude import Attitude
 
 _G = 9.80665
 _PI = 3.141592653589793
@@ -115,12 +116,6 @@ class Mekf:
         quat.from_euler(self.q, math.atan2(-ay, -az), math.asin(s), 0.0)
         self._rotation()
 
-    def set_bias(self, bx, by, bz):
-        b = self.bias
-        b[0] = bx
-        b[1] = by
-        b[2] = bz
-
     def normalize(self):
         quat.normalize(self.q)
 
@@ -197,25 +192,9 @@ class Mekf:
         self._fold()
         return 0
 
-    def align_heading(self, mx, my, mz):
-        R = self.R
-        mn = R[0] * mx + R[1] * my + R[2] * mz
-        me = R[3] * mx + R[4] * my + R[5] * mz
-        if mn * mn + me * me < 1e-12:
-            return
-        err = math.atan2(me, mn) - self._decl
-        c = math.cos(0.5 * err)
-        s = -math.sin(0.5 * err)
-        q = self.q
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
-        q[0] = c * w - s * z
-        q[1] = c * x - s * y
-        q[2] = c * y + s * x
-        q[3] = c * z + s * w
-        self._rotation()
+    # the same exact turn as the Mahony filter's (both keep q, R and _decl)
+    align_heading = Attitude.align_heading
+    set_bias = Attitude.set_bias
 
     # --------------------------------------------------------------- helpers
     def _propagate(self, dt, wx, wy, wz):
@@ -300,18 +279,4 @@ class Mekf:
         self._rotation()
 
     def _rotation(self):
-        q = self.q
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
-        R = self.R
-        R[0] = 1.0 - 2.0 * (y * y + z * z)
-        R[1] = 2.0 * (x * y - w * z)
-        R[2] = 2.0 * (x * z + w * y)
-        R[3] = 2.0 * (x * y + w * z)
-        R[4] = 1.0 - 2.0 * (x * x + z * z)
-        R[5] = 2.0 * (y * z - w * x)
-        R[6] = 2.0 * (x * z - w * y)
-        R[7] = 2.0 * (y * z + w * x)
-        R[8] = 1.0 - 2.0 * (x * x + y * y)
+        quat.to_matrix(self.R, self.q)
