@@ -97,6 +97,19 @@ def integrate(q, wx, wy, wz, dt):
     normalize(q)
 
 
+def turn(q, hx, hy, hz):
+    """q <- q * (1, hx, hy, hz): a small body rotation of (2 hx, 2 hy, 2 hz)
+    rad, to first order, without renormalising (the caller decides when)."""
+    w = q[0]
+    x = q[1]
+    y = q[2]
+    z = q[3]
+    q[0] = w - hx * x - hy * y - hz * z
+    q[1] = x + hx * w + hz * y - hy * z
+    q[2] = y + hy * w - hz * x + hx * z
+    q[3] = z + hz * w + hy * x - hx * y
+
+
 def from_euler(q, roll, pitch, yaw):
     """Z-Y-X (yaw, pitch, roll) Euler angles in radians to ``q``."""
     cr = math.cos(0.5 * roll)

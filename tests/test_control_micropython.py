@@ -4,10 +4,7 @@ the figure ``roboray-sim bench control`` reports against."""
 
 from __future__ import annotations
 
-import ast
-import inspect
 import json
-import textwrap
 
 import pytest
 
@@ -16,6 +13,7 @@ from roboray.shared.control import allocation, backstepping, cascade, gains
 from roboray.shared.estimator import Estimator
 from roboray.sim import flight as F
 from roboray.sim.commands.control import STEP_HEAP_LIMIT
+from roboray.tools import boardcheck
 from roboray.tools.micropython import assert_close_f32
 
 
@@ -80,31 +78,8 @@ STEP_CODE = [
     allocation.Allocation._fold_index, allocation.Allocation._trilinear, allocation._clip,
     gains.Gains.refresh,
 ]
-_BUILDERS = (ast.List, ast.Tuple, ast.Dict, ast.Set, ast.ListComp, ast.DictComp, ast.SetComp,
-             ast.GeneratorExp, ast.JoinedStr, ast.Lambda, ast.FunctionDef, ast.Starred)
-
-
 def _builds(func) -> list[str]:
-    tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
-    body = tree.body[0]
-    assert isinstance(body, ast.FunctionDef)
-    doc = body.body[0].value if body.body and isinstance(body.body[0], ast.Expr) else None
-    found = []
-    for node in ast.walk(body):
-        if node is body or node is doc:
-            continue
-        if isinstance(node, _BUILDERS) and not (isinstance(node, ast.Tuple) and isinstance(node.ctx, ast.Store)):
-            found.append("%s at line %d" % (type(node).__name__, node.lineno))
-        elif isinstance(node, ast.Return) and isinstance(node.value, ast.Tuple):
-            found.append("returned tuple at line %d" % node.lineno)
-        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
-            found.append("str constant at line %d" % node.lineno)
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in (
-                "list", "tuple", "dict", "set", "str", "bytes", "bytearray", "array", "sorted", "print"):
-            found.append("%s() at line %d" % (node.func.id, node.lineno))
-    if body.args.vararg or body.args.kwarg:
-        found.append("*args/**kwargs")
-    return found
+    return boardcheck.step_builds(func)
 
 
 @pytest.mark.parametrize("func", STEP_CODE, ids=lambda f: f.__qualname__)

@@ -3,16 +3,14 @@ and steps that allocate only their boxed floats, within the bench's figure."""
 
 from __future__ import annotations
 
-import ast
-import inspect
 import json
-import textwrap
 
 import pytest
 
 from roboray.shared import estimator as estimator_pkg
 from roboray.shared.estimator import attitude, descent_model, estimator, horizontal, ticks, vertical
 from roboray.sim import estimation as E
+from roboray.tools import boardcheck
 from roboray.tools.micropython import assert_close_f32
 
 #: Ticks replayed on both interpreters: 11 s, through the release at 10 s.
@@ -82,31 +80,8 @@ STEP_CODE = [
     horizontal.Horizontal.update, horizontal.Horizontal._find, horizontal.Horizontal._restart,
     horizontal.Horizontal.set_gain, descent_model.glide_gain, ticks.ticks_diff,
 ]
-_BUILDERS = (ast.List, ast.Tuple, ast.Dict, ast.Set, ast.ListComp, ast.DictComp, ast.SetComp,
-             ast.GeneratorExp, ast.JoinedStr, ast.Lambda, ast.FunctionDef, ast.Starred)
-
-
 def _builds(func) -> list[str]:
-    """What ``func`` builds per call besides numbers: containers, strings,
-    closures, argument packing."""
-    tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
-    body = tree.body[0]
-    assert isinstance(body, ast.FunctionDef)
-    doc = body.body[0].value if body.body and isinstance(body.body[0], ast.Expr) else None
-    found = []
-    for node in ast.walk(body):
-        if node is body or node is doc:
-            continue
-        if isinstance(node, _BUILDERS) and not (isinstance(node, ast.Tuple) and isinstance(node.ctx, ast.Store)):
-            found.append("%s at line %d" % (type(node).__name__, node.lineno))
-        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
-            found.append("str constant at line %d" % node.lineno)
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in (
-                "list", "tuple", "dict", "set", "str", "bytes", "bytearray", "array", "sorted", "print"):
-            found.append("%s() at line %d" % (node.func.id, node.lineno))
-    if body.args.vararg or body.args.kwarg:
-        found.append("*args/**kwargs")
-    return found
+    return boardcheck.step_builds(func)
 
 
 @pytest.mark.parametrize("func", STEP_CODE, ids=lambda f: f.__qualname__)

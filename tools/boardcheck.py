@@ -98,6 +98,40 @@ def source_problems(path: Path) -> list[str]:
     return problems
 
 
+_BUILDERS = (ast.List, ast.Tuple, ast.Dict, ast.Set, ast.ListComp, ast.DictComp, ast.SetComp,
+             ast.GeneratorExp, ast.JoinedStr, ast.Lambda, ast.FunctionDef, ast.Starred)
+_BUILDING_CALLS = ("list", "tuple", "dict", "set", "str", "bytes", "bytearray", "array", "sorted", "print")
+
+
+def step_builds(func, returned_tuples: bool = True) -> list[str]:
+    """What a board step ``func`` builds per call besides numbers, read from
+    its source: containers, strings, closures, argument packing and (unless
+    ``returned_tuples`` is False) a returned tuple. The allocation
+    measurement on MicroPython says how much; this says where."""
+    import inspect
+    import textwrap
+
+    tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
+    body = tree.body[0]
+    assert isinstance(body, ast.FunctionDef)
+    doc = body.body[0].value if body.body and isinstance(body.body[0], ast.Expr) else None
+    found = []
+    for node in ast.walk(body):
+        if node is body or node is doc:
+            continue
+        if isinstance(node, _BUILDERS) and not (isinstance(node, ast.Tuple) and isinstance(node.ctx, ast.Store)):
+            found.append("%s at line %d" % (type(node).__name__, node.lineno))
+        elif returned_tuples and isinstance(node, ast.Return) and isinstance(node.value, ast.Tuple):
+            found.append("returned tuple at line %d" % node.lineno)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            found.append("str constant at line %d" % node.lineno)
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _BUILDING_CALLS:
+            found.append("%s() at line %d" % (node.func.id, node.lineno))
+    if body.args.vararg or body.args.kwarg:
+        found.append("*args/**kwargs")
+    return found
+
+
 def pyright() -> tuple[int, str]:
     """Run pyright on the board code against the MicroPython stubs.
 

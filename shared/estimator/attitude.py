@@ -200,18 +200,11 @@ class Attitude:
         hx = (cx + e[0]) * h
         hy = (cy + e[1]) * h
         hz = (cz + e[2]) * h
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
         # q + 1/2 dt q (x) (0, omega): first order; |q|^2 grows by
         # (|omega| dt / 2)^2 a step (6e-5 at 1.5 rad/s and 100 Hz), and
         # normalize() runs at 10 Hz. Until then R from the unnormalised q is
         # (1 + eps) R - eps I: a direction error of eps sin(tilt), < 0.01 deg.
-        q[0] = w - hx * x - hy * y - hz * z
-        q[1] = x + hx * w + hz * y - hy * z
-        q[2] = y + hy * w - hz * x + hx * z
-        q[3] = z + hz * w + hy * x - hx * y
+        quat.turn(q, hx, hy, hz)
         self._rotation()
         f2 = ax * ax + ay * ay + az * az
         if self._f2_lo < f2 < self._f2_hi:

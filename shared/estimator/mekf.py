@@ -261,14 +261,7 @@ class Mekf:
         hx = 0.5 * dx[0]
         hy = 0.5 * dx[1]
         hz = 0.5 * dx[2]
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
-        q[0] = w - hx * x - hy * y - hz * z
-        q[1] = x + hx * w + hz * y - hy * z
-        q[2] = y + hy * w - hz * x + hx * z
-        q[3] = z + hz * w + hy * x - hx * y
+        quat.turn(q, hx, hy, hz)
         quat.normalize(q)
         b = self.bias
         mb = self._max_bias
