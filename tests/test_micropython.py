@@ -108,6 +108,28 @@ def test_hostlink_reaches_the_python_side():
     assert seen == ["step 0", "step 1", "step 2"]
 
 
+def test_hostlink_answers_ahead_as_the_twin_pipelines():
+    # answer k is sent on request k-1 (the first with the code): request k
+    # reads it; None sends nothing, so the answers stay one ahead
+    seen = []
+
+    def answer(text: str):
+        seen.append(text)
+        k = int(text.split()[1])
+        return None if k == 2 else "for %d" % (k + 1)
+
+    with MicroPython(on_request=answer) as mp:
+        mp.exec("import hostlink")
+        out = mp.exec("print([hostlink.request('step %d' % i) for i in range(3)])", replies=["for 0"])
+        assert out.strip() == "['for 0', 'for 1', 'for 2']"
+        assert seen == ["step 0", "step 1", "step 2"]
+        # an answer sent ahead that the code never asked for is dropped with
+        # the code's end, not read as the next command
+        assert mp.exec("print('next')", replies=["unread"]).strip() == "next"
+        mp.on_request = lambda text: text.upper()
+        assert mp.eval("hostlink.request('again')") == "AGAIN"
+
+
 def test_files_round_trip(micropython):
     micropython.write_file("/tmp/data.bin", bytes(range(256)))
     assert micropython.read_file("/tmp/data.bin") == bytes(range(256))

@@ -4,25 +4,37 @@
 MicroPython interpreter (``--interpreter micropython``, the default) or on
 CPython in a child process (``cpython``), with the emulated Pico 2 of
 ``board/`` under it, and answers its ``hostlink.request`` once per servo
-frame (20 ms of virtual time; ``board/lockstep.py`` states the protocol):
+frame (20 ms of virtual time; ``board/lockstep.py`` states the protocol).
+
+The world runs one frame ahead of the board. The reply the board reads at
+its frame boundary k (time t_k) was sent after its request k-1, so it
+never waits for the world, and the host's work (the world, the ground)
+runs on another core while the board runs its frame. Request k carries:
 
 1. the firmware's state for the record (mode, failsafe bits), and the bytes
-   its radio UART sent, which cross the air (``radio-loss`` and
-   ``radio-corrupt`` faults act here) to the ``Ground`` (pymavlink: the
-   operator's script, the tracker relay, the tlog) and to a person's ground
-   station when ``--radio`` attached one;
-2. faults due now (``faults.py``);
-3. the servo pulses read back into wing angles through the servo
+   its radio UART sent during frame k-1, which cross the air
+   (``radio-loss`` and ``radio-corrupt`` faults act here) to the ``Ground``
+   (pymavlink: the operator's script, the tracker relay, the tlog) and to a
+   person's ground station when ``--radio`` attached one, at t_(k+1);
+2. the servo pulses at t_k, read back into wing angles through the servo
    calibration (``firmware/drivers/servo.py`` in reverse, with the
-   ``SERVOn_*`` parameters the board booted with) and the world advanced one
-   frame (``world.py``: two 10 ms RK4 steps of the dynamics);
-4. the reply: the parts' inputs at the frame's two step boundaries, the
-   ground's bytes (its own frames and, between them, whole frames from a
-   person's ground station), and events for the board.
+   ``SERVOn_*`` parameters the board booted with).
 
-The board never runs ahead of the world nor the world ahead of the board:
-a run is deterministic for a seed (same tlog, byte for byte) and runs as
-fast as the machine allows, or paced to ``speedup`` times real time.
+The reply to it is frame k+1's: faults due by t_(k+1) (``faults.py``), the
+ground's bytes (its own frames and, between them, whole frames from a
+person's ground station), and the parts' inputs at the frame's two step
+boundaries, t_(k+1) and t_(k+1) + 10 ms, the world (``world.py``: two 10 ms
+RK4 steps of the dynamics) advancing over frame k+1 with the pulses of t_k.
+So a pulse reaches the wings one servo frame after the board set it: 20 ms
+of dead time, about what a hobby servo's pulse measurement and dead band
+add anyway (the board's PWM changes its output at the next period, the
+servo acts on a pulse once it has measured it), and the link's bytes take
+one frame longer to cross than the line rate alone would.
+
+The board never runs ahead of the world nor the world ahead of the board
+by more than that frame: a run is deterministic for a seed (same tlog,
+byte for byte) and runs as fast as the machine allows, or paced to
+``speedup`` times real time.
 
 Parameters: the board boots from a parameter file the twin writes first:
 the firmware's defaults, the compass calibration of this seed's
@@ -115,9 +127,9 @@ class MicroPythonBoard:
         except FileNotFoundError:
             return None
 
-    def run(self, config: dict) -> str:
+    def run(self, config: dict, first_reply: str) -> str:
         return self.mp.exec("import json\nfrom roboray.sim.twin.board import lockstep\n"
-                            "lockstep.run(**json.loads(%r))\n" % json.dumps(config))
+                            "lockstep.run(**json.loads(%r))\n" % json.dumps(config), replies=[first_reply])
 
     def close(self) -> None:
         if self.own:
@@ -149,7 +161,7 @@ class CPythonBoard:
         p = self._host(path)
         return p.read_bytes() if p.exists() else None
 
-    def run(self, config: dict) -> str:
+    def run(self, config: dict, first_reply: str) -> str:
         to_child_r, to_child_w = os.pipe()
         from_child_r, from_child_w = os.pipe()
         out_path = self.dir / "console.txt"
@@ -163,12 +175,16 @@ class CPythonBoard:
         reader = os.fdopen(from_child_r, "rb")
         writer = os.fdopen(to_child_w, "wb")
         try:
+            writer.write(first_reply.encode() + b"\n")
+            writer.flush()
             while True:
                 line = reader.readline()
                 if not line:
                     break
-                writer.write(self.on_request(line[:-1].decode()).encode() + b"\n")
-                writer.flush()
+                answer = self.on_request(line[:-1].decode())
+                if answer is not None:
+                    writer.write(answer.encode() + b"\n")
+                    writer.flush()
         finally:
             reader.close()
             try:
@@ -257,7 +273,8 @@ class Twin:
         self.host_wall = 0.0
         self.world_wall = 0.0
         self.max_board_frame_s = 0.0
-        self._t_reply: Optional[float] = None
+        self._t_request: Optional[float] = None
+        self._stopping = False
         self._interpreter = interpreter
         self.board: Any = None
         self.bytes_up = 0
@@ -278,21 +295,49 @@ class Twin:
                                                                        table.minimum(i), table.maximum(i)))
 
     # ------------------------------------------------------------ requests
-    def _on_request(self, text: str) -> str:
+    def first_reply(self) -> str:
+        """The reply the board reads at its first frame boundary (time 0),
+        sent before it runs: the world is one frame ahead from the start."""
+        return self._frame_reply(b"", first=True)
+
+    def _on_request(self, text: str) -> Optional[str]:
+        """Request k (board time t_k): the reply for frame k+1, or None.
+
+        The reply the board reads at t_k was sent after request k-1, so the
+        board never waits for the world (see the module docstring); the
+        host's work here overlaps the board's next frame.
+        """
         now = time.perf_counter()
-        if self._t_reply is not None:
-            dt = now - self._t_reply
+        if self._t_request is not None:
+            dt = now - self._t_request
             self.board_wall += dt
             if dt > self.max_board_frame_s:
                 self.max_board_frame_s = dt
+        self._t_request = now
         if text[:1] == "E":
             self.board_report = json.loads(text[1:])
-            self._t_reply = None
+            self._t_request = None
             return ""
         parts = text.split(" ")
-        pulses = [int(p) for p in parts[0:4]]
-        self._state(int(parts[4]), int(parts[5]))
+        # the world is at t_(k+1): this request was made one frame earlier
+        self._state(self.world.t - FRAME_US * 1e-6, int(parts[4]), int(parts[5]))
+        if self._stopping:
+            return None   # the board has its stop order; "E" comes next
+        self._angles([int(p) for p in parts[0:4]])
         sent = bytes.fromhex(parts[6]) if len(parts) > 6 and parts[6] else b""
+        reply = self._frame_reply(sent, first=False)
+        if self.options.speedup is not None:
+            # frame k+1 starts no earlier than its board time allows
+            ahead = self._wall0 + (self.world.t - FRAME_US * 1e-6) / self.options.speedup - time.perf_counter()
+            if ahead > 0:
+                time.sleep(ahead)
+        self.host_wall += time.perf_counter() - now
+        return reply
+
+    def _frame_reply(self, sent: bytes, first: bool) -> str:
+        """The board's inputs for the frame starting at ``world.t``: the
+        bytes it sent last frame go to the ground, the ground's to the board,
+        the world advances one frame with the wings the servos hold now."""
         t = self.world.t
         g = self.ground
         g.t = t
@@ -317,23 +362,16 @@ class Twin:
                 down += frame
         down = self._air(down)
         self.bytes_down += len(down)
-        first = self._pending is None
         row0 = self.world.start_row() if first else self._pending
         w0 = time.perf_counter()
-        rows = self.world.frame(self._angles(pulses))
+        rows = self.world.frame(self._wings)
         self.world_wall += time.perf_counter() - w0
         self._pending = rows[-1]
         steps = [row0] + rows[:-1]
         if self._done(t):
             events.append(["stop"])
-        reply = json.dumps([steps, down.hex(), events])
-        if self.options.speedup is not None:
-            ahead = self._wall0 + self.world.t / self.options.speedup - time.perf_counter()
-            if ahead > 0:
-                time.sleep(ahead)
-        self._t_reply = time.perf_counter()
-        self.host_wall += self._t_reply - now
-        return reply
+            self._stopping = True
+        return json.dumps([steps, down.hex(), events])
 
     def _angles(self, pulses: list[int]) -> np.ndarray:
         w = self._wings
@@ -343,8 +381,7 @@ class Twin:
                 w[k] = (pulses[k] / 1000.0 - zero) / span * (math.pi / 2)
         return w
 
-    def _state(self, mode: int, active: int) -> None:
-        t = self.world.t
+    def _state(self, t: float, mode: int, active: int) -> None:
         if mode != self.mode:
             self.mode_log.append((round(t, 3), MODES[mode] if 0 <= mode < len(MODES) else "OFF"))
             self.mode = mode
@@ -424,7 +461,7 @@ class Twin:
                       "divider": self.table.get(self.table.index("BATT_VOLT_MULT"))}
             startup = time.perf_counter() - t0
             self._wall0 = time.perf_counter()
-            console = self.board.run(config)
+            console = self.board.run(config, self.first_reply())
             wall = time.perf_counter() - self._wall0
             self.param_file = self.board.read_file(PARAM_PATH)
         finally:

@@ -8,7 +8,9 @@
 //       MicroPython may call hostlink.request(text); that writes a
 //       {"op": "request"} line and blocks until the client answers with a
 //       {"op": "reply"} line, which is how the twin steps the dynamics in
-//       lockstep with the firmware.
+//       lockstep with the firmware. A request takes the next reply line
+//       whenever it was sent, so the client may answer ahead (the twin
+//       sends frame k+1's inputs while the board runs frame k).
 //
 //   node host.mjs repl <micropython.mjs> <fs_dir> [heap_bytes] [options_json]
 //       Raw bytes: stdin is the board's USB serial input, stdout its output.
@@ -111,6 +113,8 @@ async function execMode() {
     const line = readLine();
     if (line === null) return;
     const req = JSON.parse(line);
+    // an answer sent ahead that the code ended without asking for
+    if (req.op === "reply") continue;
     const reply = { op: "done", id: req.id, ok: true };
     try {
       switch (req.op) {

@@ -18,7 +18,7 @@ import os
 import select
 import subprocess
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, Sequence
 
 from .install import host_script, interpreter_module, node_executable
 
@@ -101,7 +101,11 @@ class MicroPython:
         for the whole firmware plus the test harness.
     on_request:
         Called with the text of every ``hostlink.request(text)`` made by code
-        running in the interpreter; its return value (a str) is the answer.
+        running in the interpreter; its return value (a str) is sent as an
+        answer, None sends nothing. ``request`` returns the next answer not
+        yet read, so a host may answer ahead: ``exec(code, replies=[...])``
+        sends answers before the code runs, and then each answer sent after
+        request k is the one request k+1 reads (the twin's pipeline).
     timeout_s:
         Longest wait for one request before the interpreter is declared dead.
     """
@@ -151,12 +155,14 @@ class MicroPython:
         self._proc.stdin.write(json.dumps(msg).encode() + b"\n")
         self._proc.stdin.flush()
 
-    def _request(self, msg: dict) -> dict:
+    def _request(self, msg: dict, replies: Sequence[str] = ()) -> dict:
         if self._proc.poll() is not None:
             raise InterpreterDied("MicroPython host is not running")
         self._next_id += 1
         msg["id"] = self._next_id
         self._send(msg)
+        for answer in replies:
+            self._send({"op": "reply", "data": answer})
         while True:
             reply = self._read_message()
             if reply.get("op") == "request":
@@ -164,15 +170,19 @@ class MicroPython:
                     answer = ""
                 else:
                     answer = self.on_request(reply["data"])
-                self._send({"op": "reply", "data": answer})
+                if answer is not None:
+                    self._send({"op": "reply", "data": answer})
                 continue
             if reply.get("op") == "done" and reply.get("id") == msg["id"]:
                 return reply
 
     # ------------------------------------------------------------- running
-    def exec(self, code: str) -> str:
-        """Run statements; return what they printed. Raises MicroPythonError."""
-        reply = self._request({"op": "exec", "code": code})
+    def exec(self, code: str, replies: Sequence[str] = ()) -> str:
+        """Run statements; return what they printed. Raises MicroPythonError.
+
+        ``replies``: answers for the first ``hostlink.request`` calls, sent
+        with the code (see ``on_request``)."""
+        reply = self._request({"op": "exec", "code": code}, replies)
         self.last_us = reply.get("us", 0.0)
         if not reply["ok"]:
             if reply.get("python"):

@@ -14,7 +14,9 @@ time, 20 ms: one servo frame) it makes one ``hostlink.request``:
   servo pulses (ns, as the PWM outputs show them now), the firmware's mode
   and active failsafe bits (for the twin's record; -1 when no application
   runs) and the bytes the radio UART sent since the last frame;
-- reply: JSON ``[steps, hex, events]``: ``steps`` holds the physical inputs
+- reply (the twin sent it after the previous request, so it is waiting
+  in the pipe: ``runner.py`` runs the world one frame ahead): JSON
+  ``[steps, hex, events]``: ``steps`` holds the physical inputs
   at this boundary and the next ``step_us`` ones within the frame, each
   ``[ax, ay, az, gx, gy, gz, mx, my, mz, p_pa, temp_c, v_batt, leak]``
   (chip axes; m/s^2, rad/s, gauss, Pa, C, V at the pack, 0/1; ``p_pa``,
