@@ -135,3 +135,28 @@ def test_files_round_trip(micropython):
     assert micropython.read_file("/tmp/data.bin") == bytes(range(256))
     with pytest.raises(FileNotFoundError):
         micropython.read_file("/tmp/missing.bin")
+
+
+def test_linecount_counts_lines_and_calls_per_function():
+    from roboray.tools.micropython import linecount
+
+    with MicroPython(variant="settrace") as mp:
+        mp.exec("def add(n):\n    s = 0\n    for i in range(n):\n        s += i\n    return s\n")
+        linecount.start(mp)
+        mp.exec("add(10)\nadd(10)")
+        counts = linecount.stop(mp)
+        mp.exec("add(10)")   # stopped: not counted
+        assert linecount.stop(mp) == counts
+    lines, calls = counts["<stdin>:add"]
+    assert calls == 2
+    # the body's line events: at least s = 0, ten additions and the return, each call
+    assert 2 * 12 <= lines <= 2 * 26
+    s = linecount.summary(counts, per=2)
+    assert s["top"][0] == {"function": "<stdin>:add", "lines": lines / 2, "calls": 1.0}
+
+
+def test_linecount_needs_the_settrace_build(micropython):
+    from roboray.tools.micropython import linecount
+
+    with pytest.raises(RuntimeError, match="settrace"):
+        linecount.start(micropython)

@@ -153,6 +153,8 @@ def do_bench_sil(args: argparse.Namespace) -> None:
     args.target = None
     args.vehicle = None
     args.water = "fresh"
+    if args.count_lines:
+        return _count_lines(args)
     twin = _twin(args)
     report = _run(twin)
     b = twin.board_report
@@ -197,6 +199,34 @@ def do_bench_sil(args: argparse.Namespace) -> None:
         if "firmware_alone_us_per_slot" in r:
             lines.append("the firmware alone: %.0f us a 10 ms slot; heap bytes a call: %s" % (
                 r["firmware_alone_us_per_slot"], ", ".join("%s %d" % kv for kv in r["firmware_heap_bytes"].items())))
+        return "\n".join(lines)
+
+    emit(args, result, text)
+
+
+def _count_lines(args: argparse.Namespace) -> None:
+    """The drop on the interpreter's settrace build: lines and calls a frame,
+    by folder and function (``tools/micropython/linecount.py``)."""
+    from roboray.sim import twin as twin_mod
+    from roboray.tools.micropython import linecount
+
+    if args.interpreter != "micropython":
+        raise CliError("--count-lines counts on MicroPython; drop --interpreter %s" % args.interpreter)
+    with twin_mod.interpreter(variant="settrace") as mp:
+        linecount.start(mp)
+        twin = _twin(args, interpreter=mp)
+        report = _run(twin)
+        counts = linecount.stop(mp)
+    frames = max(int(twin.board_report.get("frames", 0)), 1)
+    result = {"interpreter": report["interpreter"] + " (settrace build)", "simulated_s": report["duration_s"],
+              "frames": frames, "per": "20 ms frame", **linecount.summary(counts, per=frames, top=args.top)}
+
+    def text(r: dict) -> str:
+        lines = ["passive drop, %.1f s simulated: %.0f lines and %.0f calls a 20 ms frame" % (
+            r["simulated_s"], r["lines"], r["calls"]), "", "   lines   calls  folder"]
+        lines += ["%8.1f %7.1f  %s" % (v["lines"], v["calls"], k) for k, v in r["by_folder"].items()]
+        lines += ["", "   lines   calls  function"]
+        lines += ["%8.1f %7.1f  %s" % (f["lines"], f["calls"], f["function"]) for f in r["top"]]
         return "\n".join(lines)
 
     emit(args, result, text)
@@ -248,4 +278,8 @@ def register(sub, bench) -> None:
     p.add_argument("--interpreter", choices=("micropython", "cpython"), default="micropython")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration", type=positive, default=None, help="cut the drop short, simulated s")
+    p.add_argument("--count-lines", action="store_true",
+                   help="count the Python lines and calls a frame runs, per function, on the interpreter's settrace "
+                        "build (deterministic, where times vary; slower: use --duration 10)")
+    p.add_argument("--top", type=int, default=25, help="with --count-lines: how many functions to list (default 25)")
     add_json(p)

@@ -2,7 +2,7 @@
 //
 // Two modes, chosen by the first argument:
 //
-//   node host.mjs exec <micropython.mjs> [heap_bytes]
+//   node host.mjs exec <micropython.mjs> [heap_bytes] [wasm]
 //       Line-delimited JSON on stdin/stdout, one request and one reply a line.
 //       The Python side (interpreter.py) is the only client. While code runs,
 //       MicroPython may call hostlink.request(text); that writes a
@@ -84,9 +84,12 @@ const send = (obj) => writeAll(Buffer.from(JSON.stringify(obj) + "\n", "utf8"));
 // ------------------------------------------------------------ exec protocol
 async function execMode() {
   const heap = parseInt(process.argv[4] || "8388608", 10);
+  // another build of the same port (the settrace one, for counting lines)
+  const wasm = process.argv[5] || undefined;
   let out = [];
   const mp = await loadMicroPython({
     heapsize: heap,
+    url: wasm,
     linebuffer: false,
     stdout: (b) => { for (const c of b) out.push(c); },
     stderr: (b) => { for (const c of b) out.push(c); },

@@ -89,5 +89,17 @@ def interpreter_module(version: str = VERSION) -> Path:
     return mjs
 
 
+#: Builds the package ships beside the plain one, by name.
+VARIANTS = ("settrace",)
+
+
+def variant_wasm(variant: str, version: str = VERSION) -> Path:
+    """Path of another build's ``.wasm`` (``settrace``: ``sys.settrace``
+    works, at some cost in speed), installing the package first if needed."""
+    if variant not in VARIANTS:
+        raise ValueError("unknown MicroPython build %r (have: %s)" % (variant, ", ".join(VARIANTS)))
+    return interpreter_module(version).with_name("micropython-%s.wasm" % variant)
+
+
 def host_script() -> Path:
     return Path(__file__).with_name("host.mjs")

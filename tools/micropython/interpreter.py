@@ -20,7 +20,7 @@ import subprocess
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
-from .install import host_script, interpreter_module, node_executable
+from .install import host_script, interpreter_module, node_executable, variant_wasm
 
 #: Board packages copied into the interpreter, as (package, path on board).
 BOARD_PACKAGES = ("roboray.shared", "roboray.firmware")
@@ -108,19 +108,24 @@ class MicroPython:
         request k is the one request k+1 reads (the twin's pipeline).
     timeout_s:
         Longest wait for one request before the interpreter is declared dead.
+    variant:
+        None for the plain build; ``"settrace"`` for the build with
+        ``sys.settrace`` (``tools/micropython/linecount.py``).
     """
 
     def __init__(
         self,
         heap_bytes: int = 8 * 1024 * 1024,
-        on_request: Optional[Callable[[str], str]] = None,
+        on_request: Optional[Callable[[str], Optional[str]]] = None,
         timeout_s: float = 120.0,
+        variant: Optional[str] = None,
     ) -> None:
         self.on_request = on_request
         self.timeout_s = timeout_s
         self._next_id = 0
         self._proc = subprocess.Popen(
-            [node_executable(), str(host_script()), "exec", str(interpreter_module()), str(heap_bytes)],
+            [node_executable(), str(host_script()), "exec", str(interpreter_module()), str(heap_bytes)]
+            + ([str(variant_wasm(variant))] if variant else []),
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
