@@ -390,7 +390,8 @@ class Twin:
         if self._done(t):
             events.append(["stop"])
             self._stopping = True
-        return json.dumps([steps, down.hex(), events])
+        # lockstep.py's reply: the rows as doubles (None, unchanged: NaN)
+        return "%s %s %s" % (np.asarray(steps, dtype="<f8").tobytes().hex(), down.hex() or "-", json.dumps(events))
 
     def _angles(self, pulses: list[int]) -> np.ndarray:
         w = self._wings
