@@ -147,8 +147,11 @@ class MicroPythonBoard:
             return None
 
     def run(self, config: dict, first_reply: str) -> str:
-        return self.mp.exec("import json\nfrom roboray.sim.twin.board import lockstep\n"
-                            "lockstep.run(**json.loads(%r))\n" % json.dumps(config), replies=[first_reply])
+        out = self.mp.exec("import json\nfrom roboray.sim.twin.board import lockstep\n"
+                           "lockstep.run(**json.loads(%r))\n" % json.dumps(config), replies=[first_reply])
+        #: requests, send_us, wait_us: the board's hostlink time, timed by Node
+        self.hostlink = self.mp.last_hostlink
+        return out
 
     def close(self) -> None:
         if self.own:

@@ -94,14 +94,24 @@ async function execMode() {
     stdout: (b) => { for (const c of b) out.push(c); },
     stderr: (b) => { for (const c of b) out.push(c); },
   });
+  // Per exec: requests made, and the time they spent sending and then
+  // blocked until the answer was there (us), for the twin's figures.
+  let link = { requests: 0, send_us: 0, wait_us: 0 };
   mp.registerJsModule("hostlink", {
     request(text) {
+      const t0 = performance.now();
       send({ op: "request", data: String(text) });
+      const t1 = performance.now();
       for (;;) {
         const line = readLine();
         if (line === null) process.exit(0);
         const msg = JSON.parse(line);
-        if (msg.op === "reply") return msg.data;
+        if (msg.op === "reply") {
+          link.requests += 1;
+          link.send_us += (t1 - t0) * 1000;
+          link.wait_us += (performance.now() - t1) * 1000;
+          return msg.data;
+        }
       }
     },
   });
@@ -122,9 +132,11 @@ async function execMode() {
     try {
       switch (req.op) {
         case "exec": {
+          link = { requests: 0, send_us: 0, wait_us: 0 };
           const t0 = performance.now();
           mp.runPython(req.code);
           reply.us = (performance.now() - t0) * 1000;
+          reply.hostlink = link;
           break;
         }
         case "write": {

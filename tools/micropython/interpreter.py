@@ -189,6 +189,10 @@ class MicroPython:
         with the code (see ``on_request``)."""
         reply = self._request({"op": "exec", "code": code}, replies)
         self.last_us = reply.get("us", 0.0)
+        #: The last exec's hostlink requests: ``requests``, and the wall time
+        #: they spent sending (``send_us``) and then blocked until their
+        #: answer was there (``wait_us``), measured by the host.
+        self.last_hostlink = reply.get("hostlink") or {"requests": 0, "send_us": 0.0, "wait_us": 0.0}
         if not reply["ok"]:
             if reply.get("python"):
                 raise MicroPythonError(reply["error"], reply.get("out", ""))
