@@ -69,3 +69,15 @@ def test_bad_arguments_are_one_line_errors(sim, args, code, words):
     lines = [ln for ln in proc.stderr.strip().splitlines() if not ln.startswith("roboray.sim")]
     assert len(lines) == 1 and words in lines[0], proc.stderr
     assert "Traceback" not in proc.stderr and proc.stdout == ""
+
+
+@pytest.mark.parametrize("args, words", [
+    (("--repeat", "0"), "--repeat 0: at least 1"),
+    (("--count-lines", "--interpreter", "cpython"), "--count-lines counts on MicroPython"),
+])
+def test_bench_sil_bad_arguments_are_one_line_errors(sim, args, words):
+    proc = sim("bench", "sil", *args)
+    assert proc.returncode == 1
+    lines = [ln for ln in proc.stderr.strip().splitlines() if not ln.startswith("roboray.sim")]
+    assert len(lines) == 1 and words in lines[0], proc.stderr
+    assert "Traceback" not in proc.stderr and proc.stdout == ""
