@@ -47,10 +47,9 @@ class Radio:
         self.tx_dropped_bytes = 0
 
     # ----------------------------------------------------------- receiving
-    def _pull(self):
-        avail = self._uart.any()
-        if avail <= 0:
-            return
+    def _pull(self, avail):
+        # ``avail`` (> 0): what uart.any() said; the callers ask, so an idle
+        # line costs no call here
         uart = self._uart
         chunk = self._chunk
         rx = self._rx
@@ -77,7 +76,9 @@ class Radio:
 
     def read_into(self, buf):
         """Copy received bytes into ``buf``; how many (0 when none)."""
-        self._pull()
+        avail = self._uart.any()
+        if avail > 0:
+            self._pull(avail)
         n = self._rx_n
         if not n:
             return 0
@@ -146,6 +147,8 @@ class Radio:
 
     def service(self):
         """Scheduler task: move bytes both ways."""
-        self._pull()
+        avail = self._uart.any()
+        if avail > 0:
+            self._pull(avail)
         if self._tx_n:
             self._push()
