@@ -180,7 +180,8 @@ class Endpoint:
     # ------------------------------------------------------------- driving
     def update(self, now_ms):
         """Read and handle what arrived, then send what is due."""
-        self.now_ms = now_ms & _TICKS_MASK
+        now = now_ms & _TICKS_MASK
+        self.now_ms = now
         p = self.parser
         while True:
             n = self.transport.read_into(self._rx)
@@ -193,10 +194,7 @@ class Endpoint:
                     self._handle(p)
             if n < len(self._rx):
                 break
-        self._send_due()
-
-    def _send_due(self):
-        now = self.now_ms
+        # then what is due
         if self.params.version != self._params_version:
             self._load_rates()
         # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
