@@ -142,8 +142,10 @@ class Wings:
         c = self.command
         p = self.pulse_us
         s = self.servos
-        for k in range(4):
-            p[k] = s[k].set_angle(c[k])
+        p[0] = s[0].set_angle(c[0])
+        p[1] = s[1].set_angle(c[1])
+        p[2] = s[2].set_angle(c[2])
+        p[3] = s[3].set_angle(c[3])
 
     def off(self):
         for s in self.servos:
