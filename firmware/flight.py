@@ -40,13 +40,6 @@ _FAILSAFE_EVERY = const(5)   # control steps between failsafe evaluations (10 Hz
 _CONTROLLER_FAILED = "controller failed: FAILSAFE mode"
 
 
-def _fill(c, angle):
-    c[0] = angle
-    c[1] = angle
-    c[2] = angle
-    c[3] = angle
-
-
 def _controlled(mode):
     return mode == M.ATTITUDE or mode == M.VELOCITY or mode == M.TARGET
 
@@ -120,11 +113,11 @@ class Flight:
         mode = modes.mode
         c = self.wings.command
         if mode == M.DISARMED:
-            _fill(c, self._safe)
+            c[0] = c[1] = c[2] = c[3] = self._safe
         elif mode == M.PASSIVE:
-            _fill(c, self._passive)
+            c[0] = c[1] = c[2] = c[3] = self._passive
         elif mode == M.FAILSAFE:
-            _fill(c, self._fs)
+            c[0] = c[1] = c[2] = c[3] = self._fs
         else:
             self._control(mode, c)
         self.nav.est.wings(c[0], c[1], c[2], c[3])
@@ -146,7 +139,7 @@ class Flight:
             self.controller_errors += 1
             self.last_error = e
             self.modes.failsafe(M.CHECK_FAILED)
-            _fill(c, self._fs)
+            c[0] = c[1] = c[2] = c[3] = self._fs
             ep.send_text(msg.MAV_SEVERITY_CRITICAL, _CONTROLLER_FAILED)
 
     def _set_target(self):

@@ -36,6 +36,8 @@ surface; arming under water (estimated depth over 1 m) keeps it.
 
 from array import array
 
+from roboray.firmware.drivers.lis3mdl import MAG_SCALE
+from roboray.firmware.drivers.lsm6dsox import ACCEL_SCALE, GYRO_SCALE
 from roboray.shared.estimator import Estimator
 from roboray.shared.estimator import health as eh
 from roboray.shared.estimator.attitude import Attitude
@@ -134,11 +136,17 @@ class Navigation:
         if rot is None:
             raise ValueError("AHRS_ORIENTATION %d is not supported (0, 2, 4, .. 14: yaw in 90 deg steps, "
                              "with or without roll 180)" % orientation)
-        self._ax = bytearray(3)
-        self._neg = bytearray(3)
-        for k in range(3):
-            self._ax[k] = rot[k][0]
-            self._neg[k] = rot[k][1]
+        # Per body value (accel x y z, gyro x y z from the LSM6DSOX's ``raw``
+        # [temp, gx, gy, gz, ax, ay, az]; field x y z from the LIS3MDL's
+        # [temp, x, y, z]): the raw count it comes from, and the counts-to-SI
+        # scale with the axis's sign. A value is then one multiplication of
+        # a small integer: one boxed float, where scaling, negating and
+        # copying through float arrays boxed two or three.
+        self._raw_i = bytes([4 + rot[k][0] for k in range(3)] + [1 + rot[k][0] for k in range(3)]
+                            + [1 + rot[k][0] for k in range(3)])
+        self._scale = ([-ACCEL_SCALE if rot[k][1] else ACCEL_SCALE for k in range(3)]
+                       + [-GYRO_SCALE if rot[k][1] else GYRO_SCALE for k in range(3)]
+                       + [-MAG_SCALE if rot[k][1] else MAG_SCALE for k in range(3)])
         #: The last IMU and magnetometer sample in body axes: accel (m/s^2), gyro (rad/s), field (gauss).
         self.body = array("f", [0.0] * 9)
         self._gnd = params.index("BARO1_GND_PRESS")
@@ -170,30 +178,44 @@ class Navigation:
         self.est.set_mag_calibration(o, (dx, xy, xz, xy, dy, yz, xz, yz, dz))
 
     # ------------------------------------------------------------ tasks
-    def _to_body(self, src, at):
-        # chip axes -> body axes into self.body[at:at+3], per AHRS_ORIENTATION
-        b = self.body
-        ax = self._ax
-        neg = self._neg
-        for k in range(3):
-            v = src[ax[k]]
-            b[at + k] = -v if neg[k] else v
-
     def step(self):
         """Scheduler task (100 Hz): IMU and magnetometer to the estimator."""
         est = self.est
         t = self._clock.ticks_us()
         b = self.body
-        if self.imu.read():
-            self._to_body(self.imu.accel, 0)
-            self._to_body(self.imu.gyro, 3)
-            est.imu(t, b[3], b[4], b[5], b[0], b[1], b[2])
+        i = self._raw_i
+        k = self._scale
+        # Straight-line: a loop or a helper call per axis costs more than the
+        # arithmetic on MicroPython.
+        imu = self.imu
+        if imu.read():
+            r = imu.raw
+            ax = r[i[0]] * k[0]
+            ay = r[i[1]] * k[1]
+            az = r[i[2]] * k[2]
+            gx = r[i[3]] * k[3]
+            gy = r[i[4]] * k[4]
+            gz = r[i[5]] * k[5]
+            b[0] = ax
+            b[1] = ay
+            b[2] = az
+            b[3] = gx
+            b[4] = gy
+            b[5] = gz
+            est.imu(t, gx, gy, gz, ax, ay, az)
             self.imu_samples += 1
         else:
             est.check(t)
-        if self.mag.read():
-            self._to_body(self.mag.mag_gauss, 6)
-            est.mag(t, b[6], b[7], b[8])
+        mag = self.mag
+        if mag.read():
+            r = mag.raw
+            mx = r[i[6]] * k[6]
+            my = r[i[7]] * k[7]
+            mz = r[i[8]] * k[8]
+            b[6] = mx
+            b[7] = my
+            b[8] = mz
+            est.mag(t, mx, my, mz)
 
     def depth_step(self):
         """Scheduler task (every 20 ms): the pressure sensor to the estimator."""

@@ -8,6 +8,7 @@ allocates (held to the figures ``roboray-sim bench sil`` prints).
 
 from __future__ import annotations
 
+import math
 import os
 
 import pytest
@@ -115,6 +116,31 @@ def test_an_unsupported_mounting_stops_the_start_with_its_reason(mp):
     assert mp.eval("rc") == 1
     assert "navigation: AHRS_ORIENTATION 3 is not supported" in out
     assert out.splitlines()[-1].startswith("stopped:")
+
+
+@pytest.mark.parametrize("orientation", [0, 2, 4, 6, 8, 10, 12, 14])
+def test_each_mounting_maps_the_chip_axes_to_the_body_axes(mp, orientation):
+    # AHRS_ORIENTATION (ArduPilot's numbering): a yaw of 0, 90, 180, 270 deg
+    # (yaw 90 turns chip x onto body y), then a roll of 180 deg from 8 on
+    yaw = (orientation % 8) // 2 * 90
+    c, s = round(math.cos(math.radians(yaw))), round(math.sin(math.radians(yaw)))
+    roll = -1 if orientation >= 8 else 1
+
+    def body(v):
+        x, y, z = v
+        return [c * x - s * y, roll * (s * x + c * y), roll * z]
+
+    table = ParamTable(app.PARAMS)
+    table.set_by_name("AHRS_ORIENTATION", orientation)
+    mp.write_file(PARAMS, encode(table))
+    mp.exec(bench.SETUP + "dev_imu.set_accel(1.0, -2.0, 9.5)\ndev_imu.set_gyro(0.1, -0.2, 0.3)\n"
+            "dev_mag.set_field(0.19, -0.05, -0.49)\n" + bench.BUILD % PARAMS
+            + "vclock.advance(10000)\nv.nav.step()")
+    got = mp.eval("list(v.nav.body)")
+    chip = mp.eval("list(v.imu.accel) + list(v.imu.gyro) + list(v.mag.mag_gauss)")
+    want = body(chip[0:3]) + body(chip[3:6]) + body(chip[6:9])
+    assert got == pytest.approx(want, rel=1e-6, abs=1e-9)
+    assert mp.eval("v.nav.imu_samples") == 1
 
 
 def test_each_task_allocates_within_its_figure(mp):

@@ -65,6 +65,16 @@ def test_commands_are_clamped_and_nan_keeps_the_last_pulse(mp):
     assert mp.eval("s.set_angle(math.pi / 2)") == 2500
 
 
+def test_a_repeated_command_keeps_its_pulse_and_its_counts(mp):
+    mp.exec("s = Servo(pwms[3])\nfor a in (0.5, 0.5, 2.0, 2.0, float('nan'), 0.5, 0.5):\n    s.set_angle(a)")
+    assert mp.eval("[s.pulse_us, s.clamped, s.invalid]") == [1318, 2, 1]   # clamped each time it was asked
+    assert mp.eval("t.pulse_ns(13)") == 1318309
+    mp.exec("s.calibrate(1200, 2000)\ns.set_angle(0.5)")                   # the same angle, a new calibration
+    assert mp.eval("[s.pulse_us, t.pulse_ns(13) // 1000]") == [1454, 1454]
+    mp.exec("s.off()\ns.set_angle(0.5)")                                   # the pulse comes back after off()
+    assert mp.eval("[s.pulse_us, t.pulse_ns(13) // 1000]") == [1454, 1454]
+
+
 @pytest.mark.parametrize("args, message", [
     ("400, 2000", "min_us 400 outside 500..2500"),
     ("1500, 1500", "no travel"),

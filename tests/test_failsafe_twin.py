@@ -83,7 +83,8 @@ def test_an_imu_that_stops_answering_is_reported_and_the_estimator_failsafe_acts
 
 
 def test_warnings_change_nothing_but_are_reported_and_an_action_set_off_raises_nothing():
-    r = fly("mag-garbage@12", "battery-sag@12", "overload@15", "leak@16",
+    # 600 us a clock reading: the loop overruns, short of starving the watchdog
+    r = fly("mag-garbage@12", "battery-sag@12", "overload:600@15", "leak@16",
             params={"BATT_LOW_TIMER": 2, "FS_DEPTH_MAX": 2.0, "FS_LEAK_ENABLE": 0})
     assert set(names(r)) == {"compass", "battery low", "loop overruns", "max depth"}
     # the pack crosses 6.6 V 1.6 s into the sag, the driver's 1 s filter a

@@ -110,6 +110,49 @@ def test_heartbeat_names_a_generic_submarine_and_streams_follow_their_rates():
     assert not [m for m in msgs if m.get_type() == "ATTITUDE"]
 
 
+def test_each_stream_goes_out_on_its_period_across_the_clock_wrap_requests_and_rate_changes():
+    mask = (1 << 30) - 1
+    g = Ground()
+    v = Vehicle(g)
+    v.now = (1 << 30) - 2995          # the millisecond clock wraps 3 s in
+    sent = {}
+
+    def run(steps):
+        for _ in range(steps):
+            v.step()
+            for m in g.received():
+                sent.setdefault(m.get_type(), []).append(v.now & mask)
+
+    def gaps(name, since=0):
+        t = [x for x in sent[name] if (x - since) & mask < 1 << 29]
+        return sorted({(b - a) & mask for a, b in zip(t, t[1:])})
+
+    run(600)                            # 6 s
+    assert gaps("HEARTBEAT") == [1000]
+    assert gaps("ATTITUDE") == [250] and gaps("SCALED_IMU") == [1000] and gaps("BATTERY_STATUS") == [2000]
+    assert sent["ATTITUDE"][0] == sent["HEARTBEAT"][0] == 5   # due from tick 0: the first update past it
+    # asked for, a stream goes out in that very update, and then on its period from there
+    g.mav.command_long_send(1, 1, pm.MAV_CMD_REQUEST_MESSAGE, 0, pm.MAVLINK_MSG_ID_BATTERY_STATUS, 0, 0, 0, 0, 0, 0)
+    asked = (v.now + 10) & mask
+    run(500)
+    assert asked in sent["BATTERY_STATUS"] and gaps("BATTERY_STATUS", since=asked) == [2000]
+    # a new rate counts from the due time already set; a stream switched
+    # back on is overdue, so it goes out at once
+    v.params.set_by_name("SR_SENSORS", 5.0)
+    v.params.set_by_name("SR_STATUS", 0.0)
+    run(300)
+    assert gaps("SCALED_IMU", since=sent["SCALED_IMU"][-10]) == [200]
+    run(7)
+    v.params.set_by_name("SR_STATUS", 1.0)
+    run(1)
+    assert sent["SYS_STATUS"][-1] == v.now & mask
+    # a ground station appearing is answered with a heartbeat at once
+    run(7)
+    g.mav.heartbeat_send(pm.MAV_TYPE_GCS, pm.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+    run(1)
+    assert sent["HEARTBEAT"][-1] == v.now & mask
+
+
 def test_telemetry_carries_the_state_the_firmware_fills():
     g = Ground()
     v = Vehicle(g)

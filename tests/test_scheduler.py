@@ -75,6 +75,17 @@ def test_an_overrun_is_counted_and_the_grid_is_kept(mp):
     assert mp.eval("s.consecutive_overruns") == 0
 
 
+def test_each_task_the_collection_and_the_slot_are_timed(mp):
+    # the work of a task, and of the collector, is what the clock moved while it ran
+    mp.exec("s = Scheduler(vclock, 10, collect=busy(300))\n"
+            "s.add('a', busy(3000), 10)\ns.add('idle', nothing, 10)\ns.add('b', busy(1200), 20, phase=1)\n"
+            "s.run(6)")
+    assert mp.eval("list(s.task_max_us[:3])") == [3000, 0, 1200]
+    assert mp.eval("list(s.runs[:3])") == [6, 6, 3]
+    assert mp.eval("[s.gc_us, s.gc_max_us, s.last_loop_us, s.max_loop_us]") == [300, 300, 4500, 4500]
+    assert mp.eval("[s.overruns, vclock.elapsed_us()]") == [0, 50000 + 4500]   # the last slot: a, b, gc
+
+
 def test_watchdog_is_fed_only_while_the_loop_is_healthy(mp):
     mp.exec("w = machine.WDT(timeout=100)\nhealthy = [True]\n"
             "s = Scheduler(vclock, 10, wdt=w, overrun_limit=3, health=lambda: healthy[0])\n"

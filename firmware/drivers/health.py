@@ -72,5 +72,6 @@ class Health:
         return self._clock.ticks_diff(self._clock.ticks_ms(), self.last_good_ms)
 
     def healthy(self):
+        clock = self._clock
         return (self.samples > 0 and self.consecutive < self.max_consecutive
-                and self.age_ms() <= self.timeout_ms)
+                and clock.ticks_diff(clock.ticks_ms(), self.last_good_ms) <= self.timeout_ms)

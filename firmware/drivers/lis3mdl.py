@@ -10,10 +10,12 @@ new sample, and ultra-high-performance has the lowest noise at any rate.
 ``read()`` is one 9-byte burst from ``STATUS_REG`` (0x27) through
 ``TEMP_OUT_H`` (0x2F); on I2C the chip advances the register address only
 when bit 7 of the sub-address is set, so the burst starts at ``0x27 | 0x80``.
-Results in the sensor's axes: ``mag_gauss`` (gauss, as MAVLink's
-SCALED_IMU and the telemetry carry it), ``temp_c``, and ``raw`` counts
-[temp, x, y, z] with ``MAG_SCALE``. A read boxes three floats (four with a
-new temperature). ``overruns`` counts samples the chip overwrote unread.
+Results in the sensor's axes: ``raw`` counts [temp, x, y, z] with
+``MAG_SCALE`` (what the firmware's navigation uses), ``mag_gauss`` (gauss,
+as MAVLink's SCALED_IMU and the telemetry carry it: the last sample scaled
+when asked for, three boxed floats) and ``temp_c``. A read boxes no float
+(two with a new temperature). ``overruns`` counts samples the chip
+overwrote unread.
 ``health`` as in the LSM6DSOX driver: bus errors, no new sample, a
 temperature outside the part's range; after 10 failed reads in a row the
 configuration is written again.
@@ -76,7 +78,7 @@ class LIS3MDL(Registers):
         Registers.__init__(self, i2c, address)
         self._clock = clock
         self._buf = bytearray(9)
-        self.mag_gauss = array("f", [0.0, 0.0, 0.0])
+        self._gauss = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 4)
         self.health = Health(clock, timeout_ms)
@@ -110,8 +112,8 @@ class LIS3MDL(Registers):
             return False
         b = self._buf
         status = b[0]
-        t = b[7] | (b[8] << 8)
-        t -= (t & 0x8000) << 1
+        # little-endian 16-bit two's complement: (u ^ 0x8000) - 0x8000 extends the sign
+        t = ((b[7] | (b[8] << 8)) ^ 0x8000) - 0x8000
         if t < _TEMP_MIN or t > _TEMP_MAX:
             health.bad(ERR_RANGE)
             self._recover()
@@ -123,21 +125,21 @@ class LIS3MDL(Registers):
         if status & _ZYXOR:
             self.overruns += 1
         raw = self.raw
-        m = self.mag_gauss
-        v = b[1] | (b[2] << 8)
-        v -= (v & 0x8000) << 1
-        raw[1] = v
-        m[0] = v * MAG_SCALE
-        v = b[3] | (b[4] << 8)
-        v -= (v & 0x8000) << 1
-        raw[2] = v
-        m[1] = v * MAG_SCALE
-        v = b[5] | (b[6] << 8)
-        v -= (v & 0x8000) << 1
-        raw[3] = v
-        m[2] = v * MAG_SCALE
+        raw[1] = ((b[1] | (b[2] << 8)) ^ 0x8000) - 0x8000
+        raw[2] = ((b[3] | (b[4] << 8)) ^ 0x8000) - 0x8000
+        raw[3] = ((b[5] | (b[6] << 8)) ^ 0x8000) - 0x8000
         if t != raw[0]:
             raw[0] = t
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
         health.good()
         return True
+
+    @property
+    def mag_gauss(self):
+        """The last sample's field, gauss (chip axes)."""
+        raw = self.raw
+        m = self._gauss
+        m[0] = raw[1] * MAG_SCALE
+        m[1] = raw[2] * MAG_SCALE
+        m[2] = raw[3] * MAG_SCALE
+        return m

@@ -4,14 +4,18 @@ Configured as the estimator expects: accelerometer +-4 g (0.122 mg/LSB),
 gyroscope +-500 dps (17.50 mdps/LSB), both at 208 Hz, block data update on,
 register auto-increment on. ``read()`` is one 16-byte burst from
 ``STATUS_REG`` (0x1E) through ``OUTZ_H_A`` (0x2D) into a buffer made once,
-decoded with shifts and scaled to SI in the sensor's axes:
+decoded with shifts, in the sensor's axes:
 
-- ``accel`` (m/s^2, specific force: +9.81 on z lying flat), ``gyro``
-  (rad/s), ``temp_c`` (C, refreshed when the chip flags a new one);
 - ``raw``: the counts [temp, gx, gy, gz, ax, ay, az], for code that folds
-  the scale into its own arithmetic (``ACCEL_SCALE``, ``GYRO_SCALE``).
+  the scale into its own arithmetic (``ACCEL_SCALE``, ``GYRO_SCALE``), as
+  the firmware's navigation does;
+- ``accel`` (m/s^2, specific force: +9.81 on z lying flat) and ``gyro``
+  (rad/s): the last sample scaled to SI when asked for (each a buffer made
+  once, filled on reading the attribute);
+- ``temp_c`` (C, refreshed when the chip flags a new one).
 
-A read boxes six floats (seven with a new temperature) and nothing else.
+A read boxes no float (two with a new temperature); asking for ``accel``
+or ``gyro`` boxes three.
 ``health`` gets a bus error, a status byte with its reserved bits set or a
 temperature outside the part's range (impossible values), or no new sample
 (stale). After 10 failed reads in a row the driver writes its configuration
@@ -73,8 +77,8 @@ class LSM6DSOX(Registers):
         Registers.__init__(self, i2c, address)
         self._clock = clock
         self._buf = bytearray(16)
-        self.accel = array("f", [0.0, 0.0, 0.0])
-        self.gyro = array("f", [0.0, 0.0, 0.0])
+        self._accel = array("f", [0.0, 0.0, 0.0])
+        self._gyro = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 7)
         self.health = Health(clock, timeout_ms)
@@ -106,8 +110,8 @@ class LSM6DSOX(Registers):
             return False
         b = self._buf
         status = b[0]
-        t = b[2] | (b[3] << 8)
-        t -= (t & 0x8000) << 1
+        # little-endian 16-bit two's complement: (u ^ 0x8000) - 0x8000 extends the sign
+        t = ((b[2] | (b[3] << 8)) ^ 0x8000) - 0x8000
         if status & _RESERVED or t < _TEMP_MIN or t > _TEMP_MAX:
             health.bad(ERR_RANGE)
             self._recover()
@@ -120,27 +124,33 @@ class LSM6DSOX(Registers):
         # more than the arithmetic on MicroPython.
         raw = self.raw
         raw[0] = t
-        v = b[4] | (b[5] << 8)
-        raw[1] = v - ((v & 0x8000) << 1)
-        v = b[6] | (b[7] << 8)
-        raw[2] = v - ((v & 0x8000) << 1)
-        v = b[8] | (b[9] << 8)
-        raw[3] = v - ((v & 0x8000) << 1)
-        v = b[10] | (b[11] << 8)
-        raw[4] = v - ((v & 0x8000) << 1)
-        v = b[12] | (b[13] << 8)
-        raw[5] = v - ((v & 0x8000) << 1)
-        v = b[14] | (b[15] << 8)
-        raw[6] = v - ((v & 0x8000) << 1)
-        g = self.gyro
-        a = self.accel
-        g[0] = raw[1] * GYRO_SCALE
-        g[1] = raw[2] * GYRO_SCALE
-        g[2] = raw[3] * GYRO_SCALE
-        a[0] = raw[4] * ACCEL_SCALE
-        a[1] = raw[5] * ACCEL_SCALE
-        a[2] = raw[6] * ACCEL_SCALE
+        raw[1] = ((b[4] | (b[5] << 8)) ^ 0x8000) - 0x8000
+        raw[2] = ((b[6] | (b[7] << 8)) ^ 0x8000) - 0x8000
+        raw[3] = ((b[8] | (b[9] << 8)) ^ 0x8000) - 0x8000
+        raw[4] = ((b[10] | (b[11] << 8)) ^ 0x8000) - 0x8000
+        raw[5] = ((b[12] | (b[13] << 8)) ^ 0x8000) - 0x8000
+        raw[6] = ((b[14] | (b[15] << 8)) ^ 0x8000) - 0x8000
         if status & _TDA:
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
         health.good()
         return True
+
+    @property
+    def accel(self):
+        """The last sample's specific force, m/s^2 (chip axes)."""
+        raw = self.raw
+        a = self._accel
+        a[0] = raw[4] * ACCEL_SCALE
+        a[1] = raw[5] * ACCEL_SCALE
+        a[2] = raw[6] * ACCEL_SCALE
+        return a
+
+    @property
+    def gyro(self):
+        """The last sample's rate, rad/s (chip axes)."""
+        raw = self.raw
+        g = self._gyro
+        g[0] = raw[1] * GYRO_SCALE
+        g[1] = raw[2] * GYRO_SCALE
+        g[2] = raw[3] * GYRO_SCALE
+        return g

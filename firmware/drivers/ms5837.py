@@ -278,8 +278,10 @@ class MS5837:
                     self._d2 = v
         # Next conversion: temperature first, then pressure and temperature in turn.
         nxt = _D2 if state == _D1 or self._d2 == 0 else _D1
+        cmd = self._cmd
+        cmd[0] = (_CMD_D1 if nxt == _D1 else _CMD_D2) + self._cmd_offset
         try:
-            self._send((_CMD_D1 if nxt == _D1 else _CMD_D2) + self._cmd_offset)
+            self._i2c.writeto(self.address, cmd)   # as _send() does, without the call
         except OSError:
             self.health.bad(ERR_BUS)
             self._state = _IDLE

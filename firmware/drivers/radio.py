@@ -47,32 +47,43 @@ class Radio:
         self.tx_dropped_bytes = 0
 
     # ----------------------------------------------------------- receiving
-    def _pull(self):
+    def _pull(self, avail):
+        # ``avail`` (> 0): what uart.any() said; the callers ask, so an idle
+        # line costs no call here
         uart = self._uart
         chunk = self._chunk
         rx = self._rx
         size = len(rx)
-        avail = uart.any()
         while avail > 0:
             n = uart.readinto(chunk, avail if avail < _CHUNK else _CHUNK)
             if not n:
                 break
             avail -= n
             self.rx_bytes += n
+            free = size - self._rx_n
+            if n > free:  # the ring is full: what does not fit is lost
+                self.rx_dropped += n - free
+                n = free
+            j = self._rx_head + self._rx_n
+            if j >= size:
+                j -= size
             for i in range(n):
-                if self._rx_n >= size:
-                    self.rx_dropped += n - i
-                    break
-                j = self._rx_head + self._rx_n
-                if j >= size:
-                    j -= size
                 rx[j] = chunk[i]
-                self._rx_n += 1
+                j += 1
+                if j >= size:
+                    j = 0
+            self._rx_n += n
 
     def read_into(self, buf):
         """Copy received bytes into ``buf``; how many (0 when none)."""
-        self._pull()
-        n = self._rx_n if self._rx_n < len(buf) else len(buf)
+        avail = self._uart.any()
+        if avail > 0:
+            self._pull(avail)
+        n = self._rx_n
+        if not n:
+            return 0
+        if n > len(buf):
+            n = len(buf)
         rx = self._rx
         size = len(rx)
         h = self._rx_head
@@ -136,5 +147,8 @@ class Radio:
 
     def service(self):
         """Scheduler task: move bytes both ways."""
-        self._pull()
-        self._push()
+        avail = self._uart.any()
+        if avail > 0:
+            self._pull(avail)
+        if self._tx_n:
+            self._push()

@@ -7,7 +7,8 @@ round: then 0 deg is at the 90 deg end) and a trim added to both (spline
 offset). The angle is clamped to 0..90 deg and the pulse to the servo's
 500..2500 us, so no command and no calibration can drive a servo into its
 end stops; a NaN command keeps the last pulse and is counted in
-``invalid``.
+``invalid``. A command equal to the last one sent (within 0..90 deg) leaves
+the PWM alone: its pulse is already the one it would compute.
 
 ``Servo`` drives one PWM channel (injected: ``machine.PWM(Pin(n),
 freq=50)``); ``Wings`` holds the four with the command buffer the
@@ -32,6 +33,7 @@ PULSE_MAX_US = const(2500)
 FREQ_HZ = const(50)
 ANGLE_MAX = 1.5707963267948966  # 90 deg, rad
 _ANGLE_TO_NS = 1000.0 / ANGLE_MAX  # us per rad at 1 us span, x1000 for ns
+_NONE = float("nan")  # "no angle": equal to no command
 
 #: Calibration parameters of wings 1..4 (shared/params.py declarations).
 PARAMS = ()
@@ -52,6 +54,7 @@ class Servo:
         self.invalid = 0
         self.clamped = 0
         self.pulse_us = 0
+        self._angle = _NONE   # the last in-range angle sent
         self.calibrate(min_us, max_us, trim_us, reversed)
 
     def calibrate(self, min_us, max_us, trim_us=0, reversed=False):
@@ -65,18 +68,25 @@ class Servo:
         lo, hi = (max_us, min_us) if reversed else (min_us, max_us)
         self._zero_ns = (lo + trim_us) * 1000
         self._ns_per_rad = (hi - lo) * _ANGLE_TO_NS
+        self._angle = _NONE
 
     def set_angle(self, angle):
         """Command the wing to ``angle`` rad (0 flat .. pi/2 folded); the pulse in us."""
+        if angle == self._angle:
+            return self.pulse_us
         if angle != angle:
             self.invalid += 1
             return self.pulse_us
         if angle < 0.0:
             angle = 0.0
             self.clamped += 1
+            self._angle = _NONE   # counted every time it is asked for
         elif angle > ANGLE_MAX:
             angle = ANGLE_MAX
             self.clamped += 1
+            self._angle = _NONE
+        else:
+            self._angle = angle
         ns = self._zero_ns + int(angle * self._ns_per_rad)
         if ns < PULSE_MIN_US * 1000:
             ns = PULSE_MIN_US * 1000
@@ -90,6 +100,7 @@ class Servo:
         """No more pulses: the servo stops holding its position."""
         self._pwm.duty_ns(0)
         self.pulse_us = 0
+        self._angle = _NONE
 
 
 class Wings:
@@ -131,8 +142,10 @@ class Wings:
         c = self.command
         p = self.pulse_us
         s = self.servos
-        for k in range(4):
-            p[k] = s[k].set_angle(c[k])
+        p[0] = s[0].set_angle(c[0])
+        p[1] = s[1].set_angle(c[1])
+        p[2] = s[2].set_angle(c[2])
+        p[3] = s[3].set_angle(c[3])
 
     def off(self):
         for s in self.servos:

@@ -205,10 +205,10 @@ class Attitude:
         # normalize() runs at 10 Hz. Until then R from the unnormalised q is
         # (1 + eps) R - eps I: a direction error of eps sin(tilt), < 0.01 deg.
         quat.turn(q, hx, hy, hz)
-        self._rotation()
+        R = self.R
+        quat.to_matrix(R, q)
         f2 = ax * ax + ay * ay + az * az
         if self._f2_lo < f2 < self._f2_hi:
-            R = self.R
             vx = R[6]
             vy = R[7]
             vz = R[8]

@@ -145,7 +145,6 @@ class Estimator:
         self._inv_rho_g = 1.0 / self._rho_g
         self._p0 = float(surface_pressure_pa)
         self._startup_us = int(startup_s * 1e6)
-        self._servo_hold_us = int(servo_hold_s * 1e6)
         self._to_imu = timeouts_us[0]
         self._to_mag = timeouts_us[1]
         self._to_depth = timeouts_us[2]
@@ -287,7 +286,7 @@ class Estimator:
         if not self._started:
             self._start(t_us, ax, ay, az)
             return
-        n = ticks_diff(t_us, self._t_imu)
+        n = ((t_us - self._t_imu + _HALF) & _TMAX) - _HALF   # ticks_diff, without the call
         if n <= 0:
             return
         # one job at the state of the previous step, whose tick is _t_imu
@@ -344,7 +343,8 @@ class Estimator:
 
     def _fuse_mag(self):
         t = self._t_m
-        if self._servo_seen and ticks_diff(t, self._t_servo) < self._servo_hold_us:
+        # ticks_diff(t, _t_servo) < the servo hold, inline, as _health() compares
+        if self._servo_seen and ((t - self._t_servo + _HALF) & _TMAX) < self._lim_servo:
             self._t_mag_ok = t
             self._mag_seen = True
             return
@@ -364,7 +364,7 @@ class Estimator:
             self._t_mag_ok = t
             self._mag_seen = True
             return
-        n = ticks_diff(t, self._t_mag_used)
+        n = ((t - self._t_mag_used + _HALF) & _TMAX) - _HALF   # ticks_diff
         if n <= 0:
             return
         if n > 100000:

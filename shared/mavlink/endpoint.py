@@ -155,6 +155,10 @@ class Endpoint:
         self._due_ms = array("l", [0] * _N_STREAMS)
         self._params_version = -1
         self._hb_due = 0
+        # No heartbeat or stream is due before this tick (the earliest due
+        # time when they were last looked at): most updates look no further.
+        # Whatever moves a due time sets it to now.
+        self._wake = 0
         self._param_next = -1   # next index to send for a list request, -1: none
         self._text = bytearray(50)
         self._euler = array("f", [0.0, 0.0, 0.0])
@@ -176,7 +180,8 @@ class Endpoint:
     # ------------------------------------------------------------- driving
     def update(self, now_ms):
         """Read and handle what arrived, then send what is due."""
-        self.now_ms = now_ms & _TICKS_MASK
+        now = now_ms & _TICKS_MASK
+        self.now_ms = now
         p = self.parser
         while True:
             n = self.transport.read_into(self._rx)
@@ -189,20 +194,12 @@ class Endpoint:
                     self._handle(p)
             if n < len(self._rx):
                 break
-        self._send_due()
-
-    def _send_due(self):
-        now = self.now_ms
-        if ticks_diff(now, self._hb_due) >= 0:
-            self._hb_due = (now + _HEARTBEAT_MS) & _TICKS_MASK
-            self.send_heartbeat()
+        # then what is due
         if self.params.version != self._params_version:
             self._load_rates()
-        for k in range(_N_STREAMS):
-            period = self._period_ms[k]
-            if period > 0 and ticks_diff(now, self._due_ms[k]) >= 0:
-                self._due_ms[k] = (now + period) & _TICKS_MASK
-                self._send_stream(k)
+        # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
+        if (now - self._wake) & _TICKS_MASK < _TICKS_HALF:
+            self._send_streams(now)
         if self._param_next >= 0:
             count = self.params.count()
             for _ in range(_PARAM_BURST):
@@ -213,11 +210,33 @@ class Endpoint:
                 self.send_param(i)
                 self._param_next = i + 1
 
+    def _send_streams(self, now):
+        """The heartbeat and the streams that are due; sets ``_wake`` to the next due time."""
+        if ticks_diff(now, self._hb_due) >= 0:
+            self._hb_due = (now + _HEARTBEAT_MS) & _TICKS_MASK
+            self.send_heartbeat()
+        wake = self._hb_due
+        soonest = ticks_diff(wake, now)
+        due = self._due_ms
+        for k in range(_N_STREAMS):
+            period = self._period_ms[k]
+            if period > 0:
+                if ticks_diff(now, due[k]) >= 0:
+                    due[k] = (now + period) & _TICKS_MASK
+                    self._send_stream(k)
+                left = ticks_diff(due[k], now)
+                if left < soonest:
+                    soonest = left
+                    wake = due[k]
+        # (a due time half the tick period away reads as past: look every time then)
+        self._wake = wake if soonest > 0 else now
+
     def _load_rates(self):
         self._params_version = self.params.version
         for k in range(_N_STREAMS):
             rate = self.params.get(self._p_rates[k])
             self._period_ms[k] = int(1000.0 / rate) if rate > 0.0 else 0
+        self._wake = self.now_ms
 
     def _send(self, msgid):
         n = self.writer.finish(msgid)
@@ -236,6 +255,7 @@ class Endpoint:
             if p.sysid == self.params.get_int(self._p_gcs):
                 if self.gcs_last_ms < 0 or ticks_diff(self.now_ms, self.gcs_last_ms) > 2000:
                     self._hb_due = self.now_ms  # a ground station (re)appeared: answer at once
+                    self._wake = self.now_ms
                 self.gcs_last_ms = self.now_ms
         elif mid == msg.MSG_COMMAND_LONG:
             if self._for_us(pl[30], pl[31]):
@@ -377,6 +397,7 @@ class Endpoint:
                     self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
                     return
                 self._due_ms[k] = self.now_ms
+            self._wake = self.now_ms
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
         else:
             self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
