@@ -14,9 +14,11 @@ it would on the board). What the firmware sees is all it can see; the other
 side of every peripheral belongs to the twin, through ``twin``:
 
 - I2C: ``twin.attach(bus_id, device)`` puts an emulated device on a bus at
-  ``device.address``. A device offers ``answers()`` (False: NACK),
-  ``read(buf)``, ``write(buf)``, ``read_mem(memaddr, buf)`` and
-  ``write_mem(memaddr, buf)``, and ``power_on()`` for a power cycle.
+  ``device.address``. A device offers ``read(buf)``, ``write(buf)``,
+  ``read_mem(memaddr, buf)`` and ``write_mem(memaddr, buf)``, which raise
+  ``OSError(EIO)`` when it does not acknowledge (a NACK), ``answers()``
+  (False: it would NACK) for ``scan()``, and ``power_on()`` for a power
+  cycle.
 - GPIO: ``twin.set_pin(pin, level)`` drives an input (None: undriven, the
   pull decides); ``twin.pin_level(pin)`` reads any pin back.
 - ADC: ``twin.set_adc_volts(channel, volts)`` or ``set_adc_u16``.
@@ -185,8 +187,9 @@ class I2C:
         self.timeout = timeout
 
     def _device(self, addr):
+        # a device that is there raises the NACK itself when it does not answer
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         return dev
 
@@ -202,7 +205,7 @@ class I2C:
     # keeps these calls off MicroPython's slow keyword path.
     def readfrom_mem_into(self, addr, memaddr, buf, addrsize=8):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.read_mem(memaddr, buf)
 
@@ -213,13 +216,13 @@ class I2C:
 
     def writeto_mem(self, addr, memaddr, buf, addrsize=8):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.write_mem(memaddr, buf)
 
     def readfrom_into(self, addr, buf, stop=True):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.read(buf)
 
@@ -230,7 +233,7 @@ class I2C:
 
     def writeto(self, addr, buf, stop=True):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.write(buf)
         return len(buf)
