@@ -34,7 +34,6 @@ FAULT_STICK = const(3)
 FAULT_NAMES = ("none", "nack", "garbage", "stick")
 
 _EIO = const(5)
-_AT_POINTER = const(-1)
 
 
 class Device:
@@ -97,7 +96,8 @@ class RegisterDevice(Device):
         Device.__init__(self, address, clock)
         self.regs = bytearray(size)
         self._mask = size - 1
-        # (view of the registers, status bits kept) by burst (first << 8 | count)
+        # (view of the registers, status bits kept, pointer after) by burst
+        # (first << 8 | count)
         self._bursts = {}
         self._ptr = 0
         self._inc = True
@@ -108,48 +108,58 @@ class RegisterDevice(Device):
 
     # bus side
     def read_mem(self, memaddr, buf):
-        """Set the pointer to ``memaddr`` and read ``buf`` full (``_AT_POINTER``:
-        read on from where the pointer is)."""
-        fault = self.fault
-        if fault == FAULT_NACK:
-            raise OSError(_EIO)  # rp2's error for a NACK
-        if memaddr != _AT_POINTER:
-            self._inc = self._inc_all or bool(memaddr & self.INC_BIT)
-            self._ptr = memaddr & self._mask
+        """Set the pointer to ``memaddr`` and read ``buf`` full."""
+        if self.fault and self.fault != FAULT_STICK:
+            if self.fault == FAULT_NACK:
+                raise OSError(_EIO)  # rp2's error for a NACK
+            self._set_pointer(memaddr)
+            self.read(buf)
+            return
+        self._inc = self._inc_all or memaddr & self.INC_BIT
+        self._ptr = memaddr & self._mask
         self.transfers += 1
-        if fault == FAULT_GARBAGE:
+        self._sync()
+        # A burst read before is one slice copy through a view of its
+        # registers, with the status bits it keeps and where it leaves the
+        # pointer: no per-byte Python loop, no allocation.
+        burst = self._bursts.get((self._ptr << 8) | len(buf)) if self._inc else None
+        if burst is None:
+            self._read_slow(buf)
+            return
+        buf[:] = burst[0]
+        self._ptr = burst[2]
+        self.regs[self._status] &= burst[1]
+
+    def read(self, buf):
+        """Read ``buf`` full on from the pointer."""
+        if self.fault == FAULT_NACK:
+            raise OSError(_EIO)
+        self.transfers += 1
+        if self.fault == FAULT_GARBAGE:
             self._fill_noise(buf)
             return
         self._sync()
+        self._read_slow(buf)
+
+    def _read_slow(self, buf):
+        # the first read of a burst (kept for the next ones), or one that
+        # wraps around or repeats a register
         regs = self.regs
         p = self._ptr
         n = len(buf)
-        if self._inc and p + n <= len(regs):
-            # One slice copy through a view made on the first read of this
-            # burst, which also remembers what the read clears: no
-            # allocation after that, and no per-byte Python loop.
-            key = (p << 8) | n
-            burst = self._bursts.get(key)
-            if burst is None:
-                burst = (memoryview(regs)[p:p + n], 0xFF & ~self._read_clears(p, n))
-                self._bursts[key] = burst
-            buf[0:n] = burst[0]
-            self._ptr = (p + n) & self._mask
-            regs[self._status] &= burst[1]
-            return
-        if self._inc:
-            for i in range(n):
-                buf[i] = regs[(p + i) & self._mask]
-            self._ptr = (p + n) & self._mask
-        else:
+        if not self._inc:
             v = regs[p]
             for i in range(n):
                 buf[i] = v
-            n = 1
-        regs[self._status] &= 0xFF & ~self._read_clears(p, n)
-
-    def read(self, buf):
-        self.read_mem(_AT_POINTER, buf)
+            regs[self._status] &= 0xFF & ~self._read_clears(p, 1)
+            return
+        for i in range(n):
+            buf[i] = regs[(p + i) & self._mask]
+        self._ptr = (p + n) & self._mask
+        keep = 0xFF & ~self._read_clears(p, n)
+        regs[self._status] &= keep
+        if p + n <= len(regs):
+            self._bursts[(p << 8) | n] = (memoryview(regs)[p:p + n], keep, self._ptr)
 
     def write_mem(self, memaddr, buf):
         if self.fault == FAULT_NACK:
@@ -172,7 +182,7 @@ class RegisterDevice(Device):
             self._advance()
 
     def _set_pointer(self, subaddr):
-        self._inc = self._inc_all or bool(subaddr & self.INC_BIT)
+        self._inc = self._inc_all or subaddr & self.INC_BIT
         self._ptr = subaddr & self._mask
 
     def _advance(self):

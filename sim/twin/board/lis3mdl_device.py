@@ -24,7 +24,6 @@ Inputs: ``set_field`` (gauss, sensor axes) and ``set_temperature`` (C).
 Faults as in ``i2c_device``.
 """
 
-from array import array
 from math import copysign
 from struct import pack_into
 
@@ -70,7 +69,8 @@ class LIS3MDLDevice(RegisterDevice):
     _status = _STATUS
 
     def __init__(self, address=ADDRESS, clock=None):
-        self._phys = array("d", [25.0, 0.2, 0.0, 0.4])  # temp C, field gauss
+        self._temp_c = 25.0
+        self._b = (0.2, 0.0, 0.4)  # set_field()'s arguments, gauss
         # OUT_X..OUT_Z and TEMP_OUT as the next sample will show them
         self._field = (bytearray(6), bytearray(6))  # little-, big-endian
         self._temp = (bytearray(2), bytearray(2))
@@ -81,10 +81,7 @@ class LIS3MDLDevice(RegisterDevice):
     # ------------------------------------------------------------ twin side
     def set_field(self, bx, by, bz):
         """Magnetic flux density along the sensor's axes, gauss."""
-        p = self._phys
-        p[1] = bx
-        p[2] = by
-        p[3] = bz
+        self._b = (bx, by, bz)
         # Each value to the nearest code, halves away from zero, clipped to
         # 16 bits (int(x + copysign(0.5, x)) rounds as x + 0.5 above zero
         # and x - 0.5 below, bit for bit), in both byte orders: a helper
@@ -98,7 +95,7 @@ class LIS3MDLDevice(RegisterDevice):
         pack_into(">hhh", be, 0, x, y, z)
 
     def set_temperature(self, temp_c):
-        self._phys[0] = temp_c
+        self._temp_c = temp_c
         self._quantise()
 
     def lsb_per_gauss(self):
@@ -106,14 +103,13 @@ class LIS3MDLDevice(RegisterDevice):
 
     def _quantise(self):
         # all outputs again, after a new full scale or temperature
-        p = self._phys
-        x = (p[0] - 25.0) * 8.0
+        x = (self._temp_c - 25.0) * 8.0
         v = max(-32768, min(32767, int(x + copysign(0.5, x))))
         le, be = self._temp
         pack_into("<h", le, 0, v)
         pack_into(">h", be, 0, v)
         self._k = self.lsb_per_gauss()
-        self.set_field(p[1], p[2], p[3])
+        self.set_field(*self._b)
 
     def _period_us(self):
         md = self.regs[_CTRL_REG3] & 3

@@ -23,7 +23,6 @@ a driver configures the chip. Inputs from the twin, in the sensor's axes:
 """
 
 import math
-from array import array
 from math import copysign
 from struct import pack_into
 
@@ -72,41 +71,39 @@ class LSM6DSOXDevice(RegisterDevice):
     _status = _STATUS
 
     def __init__(self, address=ADDRESS, clock=None):
-        self._phys = array("d", [25.0, 0.0, 0.0, 0.0, 0.0, 0.0, G])  # temp, gyro, accel
+        self._temp_c = 25.0
+        self._motion = (0.0, 0.0, G, 0.0, 0.0, 0.0)  # set_motion()'s arguments
         # output registers 0x20..0x2D as the next sample will show them
         self._temp = bytearray(2)
         self._gyro = bytearray(6)
         self._accel = bytearray(6)
         # LSB sizes at the configured full scales (``gyro_lsb``, ``accel_lsb``)
+        # and sample periods at the configured rates (0: off), us
         self._g_lsb = 1.0
         self._a_lsb = 1.0
+        self._xl_period = 0
+        self._g_period = 0
         RegisterDevice.__init__(self, address, 128, clock)
 
     # ------------------------------------------------------------ twin side
     def set_accel(self, ax, ay, az):
         """Specific force along the sensor's axes, m/s^2 (+g on z lying flat)."""
-        p = self._phys
-        self.set_motion(ax, ay, az, p[1], p[2], p[3])
+        m = self._motion
+        self.set_motion(ax, ay, az, m[3], m[4], m[5])
 
     def set_gyro(self, gx, gy, gz):
         """Angular rate about the sensor's axes, rad/s."""
-        p = self._phys
-        self.set_motion(p[4], p[5], p[6], gx, gy, gz)
+        m = self._motion
+        self.set_motion(m[0], m[1], m[2], gx, gy, gz)
 
     def set_temperature(self, temp_c):
-        self._phys[0] = temp_c
+        self._temp_c = temp_c
         self._quantise()
 
     def set_motion(self, ax, ay, az, gx, gy, gz):
         """``set_accel`` and ``set_gyro`` at once (the twin's step); the
         temperature stays as it is."""
-        p = self._phys
-        p[1] = gx
-        p[2] = gy
-        p[3] = gz
-        p[4] = ax
-        p[5] = ay
-        p[6] = az
+        self._motion = (ax, ay, az, gx, gy, gz)
         # Each value to the nearest code, halves away from zero, clipped to
         # 16 bits (int(x + copysign(0.5, x)) rounds as x + 0.5 above zero
         # and x - 0.5 below, bit for bit), straight into the output bytes:
@@ -134,12 +131,11 @@ class LSM6DSOXDevice(RegisterDevice):
 
     def _quantise(self):
         # all outputs again, after a new full scale or temperature
-        p = self._phys
-        x = (p[0] - 25.0) * 256.0
+        x = (self._temp_c - 25.0) * 256.0
         pack_into("<h", self._temp, 0, max(-32768, min(32767, int(x + copysign(0.5, x)))))
         self._g_lsb = self.gyro_lsb()
         self._a_lsb = self.accel_lsb()
-        self.set_motion(p[4], p[5], p[6], p[1], p[2], p[3])
+        self.set_motion(*self._motion)
 
     # ---------------------------------------------------------- chip model
     def _reset_registers(self):
@@ -152,6 +148,8 @@ class LSM6DSOXDevice(RegisterDevice):
         self._inc_all = True  # IF_INC
         self._next_xl = 0
         self._next_g = 0
+        self._xl_period = 0
+        self._g_period = 0
         self._quantise()
 
     def _write_reg(self, reg, value):
@@ -166,39 +164,38 @@ class LSM6DSOXDevice(RegisterDevice):
         if reg == _CTRL1_XL:
             if (old >> 4) == 0 and (value >> 4):
                 self._next_xl = self.clock.ticks_add(now, _ODR_US[value >> 4])
+            self._xl_period = _ODR_US[value >> 4]
             self._quantise()
         elif reg == _CTRL2_G:
             if (old >> 4) == 0 and (value >> 4):
                 self._next_g = self.clock.ticks_add(now, _ODR_US[value >> 4] if value >> 4 < 11 else 0)
+            self._g_period = _ODR_US[value >> 4] if value >> 4 < 11 else 0  # 1.6 Hz: accelerometer only
             self._quantise()
         elif reg == _CTRL3_C:
-            self._inc_all = bool(value & 0x04)
+            self._inc_all = value & 0x04
 
     def _sync(self):
         clock = self.clock
         now = clock.now_us if not clock.tick_cost_us else clock.ticks_us()
         regs = self.regs
-        stuck = self.fault == FAULT_STICK
         # Samples are latched on a grid of ODR periods; a late read skips the
         # missed ones (the sum is masked here, since after a long gap it can
         # exceed the interval ticks_add accepts).
-        code = regs[_CTRL1_XL] >> 4
-        if code:
+        period = self._xl_period
+        if period:
             late = clock.ticks_diff(now, self._next_xl)
             if late >= 0:
-                period = _ODR_US[code]
                 self._next_xl = (self._next_xl + (late // period + 1) * period) & _TICKS_MAX
-                if not stuck:
+                if self.fault != FAULT_STICK:
                     regs[_OUTX_L_A:_OUTX_L_A + 6] = self._accel
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                 regs[_STATUS] |= _XLDA | _TDA
-        code = regs[_CTRL2_G] >> 4
-        if code and code < 11:
+        period = self._g_period
+        if period:
             late = clock.ticks_diff(now, self._next_g)
             if late >= 0:
-                period = _ODR_US[code]
                 self._next_g = (self._next_g + (late // period + 1) * period) & _TICKS_MAX
-                if not stuck:
+                if self.fault != FAULT_STICK:
                     regs[_OUTX_L_G:_OUTX_L_G + 6] = self._gyro
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                 regs[_STATUS] |= _GDA | _TDA

@@ -421,7 +421,7 @@ class _UartLine:
 
     def take(self):
         """Bytes the board has sent so far (at the line rate)."""
-        self._pump(time.ticks_us())
+        self._pump(time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us())
         n = self.out_n
         sent = bytes(self.out[0:n])
         if n:
@@ -590,7 +590,7 @@ class UART:
 
     def write(self, buf, off=0, sz=-1):
         line = self._line
-        line._pump(time.ticks_us())
+        line._pump(time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us())
         end = len(buf) if sz < 0 or off + sz > len(buf) else off + sz
         i = off + line.put_from(buf, off, end)
         while i < end:

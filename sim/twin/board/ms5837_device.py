@@ -279,6 +279,14 @@ class MS5837Device(Device):
 
     def read_mem(self, memaddr, buf):
         self._command(memaddr)
+        if self._out == _OUT_ADC and len(buf) == 3 and self.fault != FAULT_GARBAGE:
+            # the driver's ADC read, written out: MSB first, then 0 on a repeat
+            v = self._out_value
+            buf[0] = (v >> 16) & 0xFF
+            buf[1] = (v >> 8) & 0xFF
+            buf[2] = v & 0xFF
+            self._out_value = 0
+            return
         self._read_out(buf)
 
     def read(self, buf):
