@@ -4,7 +4,7 @@ MicroPython code: the twin runs it inside the interpreter that runs the
 firmware, as ``sys.modules['machine']``; the WebAssembly port has no built-in
 ``machine``, so the file also works alone as ``/lib/machine.py`` on the
 virtual board. It imports nothing but ``time`` (the virtual clock when the
-twin installed one, the real clock otherwise).
+twin installed one, the real clock otherwise) and ``io``.
 
 With nothing attached it is a bare Pico 2: ``I2C.scan()`` returns ``[]``
 and any transfer raises ``OSError(EIO)`` as rp2 does on a NACK; pins read
@@ -45,6 +45,7 @@ paths read the virtual clock's state directly (``vclock.now_us``, what
 ``ticks_us()`` returns, without a Python call) unless readings cost time.
 """
 
+import io
 import time
 
 try:
@@ -72,6 +73,22 @@ WDT_RESET = const(3)
 
 #: ``time`` is the twin's virtual clock (not the host's real one).
 _VCLOCK = hasattr(time, "tick_cost_us")
+
+#: MicroPython's streams write a part of a buffer, ``write(buf, off, n)``,
+#: without a view of it (a memoryview slice allocates there); CPython's
+#: take the view.
+try:
+    io.BytesIO().write(b"", 0, 0)
+    _STREAM_PARTS = True
+except TypeError:
+    _STREAM_PARTS = False
+
+
+def _write_part(stream, buf, off, n):
+    if _STREAM_PARTS:
+        stream.write(buf, off, n)
+    else:
+        stream.write(memoryview(buf)[off:off + n])
 
 
 class BoardReset(BaseException):
@@ -328,9 +345,11 @@ class _UartLine:
       first the ``rx_n`` bytes that arrived in the board's receive buffer
       (``rx_size`` bytes), then those still on the wire. Bytes that arrive
       with the buffer full are cut out of it; bytes read leave its front.
-    - ``out`` holds what the board wrote and the far end has not taken:
-      first the ``out_n`` bytes already on the wire (at most ``_WIRE_BUF``),
-      then the ``tx_n`` still in the board's transmit buffer (``tx_size``).
+    - ``out``, a stream of ``_WIRE_BUF + tx_size`` bytes, holds what the
+      board wrote and the far end has not taken: first the ``out_n`` bytes
+      already on the wire (at most ``_WIRE_BUF``), then the ``tx_n`` still
+      in the board's transmit buffer (``tx_size``). A write is one stream
+      write of the part of the board's buffer that fits.
 
     The cuts are slice assignments of ``b""``, in place; nothing on the
     board's side allocates.
@@ -343,8 +362,9 @@ class _UartLine:
         self.wire_in = bytearray()
         self.tx_size = _UART_DEFAULT_BUF
         self.tx_n = 0
-        self.out = bytearray(_WIRE_BUF + _UART_DEFAULT_BUF)
+        self.out = io.BytesIO(bytearray(_WIRE_BUF + _UART_DEFAULT_BUF))
         self.out_n = 0
+        self._scratch = bytearray(_UART_DEFAULT_BUF)  # for a wire overflow
         self.byte_ns = 173611                    # 57600 baud, 8N1: 10 bits a byte
         self.rx_dropped = 0                      # arrived with the receive buffer full
         self.out_lost = 0                        # the twin did not take() in time
@@ -358,10 +378,12 @@ class _UartLine:
         self.rx_size = rxbuf
         self.wire_in[0:self.rx_n] = b""  # what had arrived is gone with the old buffer
         if self.tx_size != txbuf:
-            out = bytearray(_WIRE_BUF + txbuf)
-            out[0:self.out_n] = self.out[0:self.out_n]
+            out = io.BytesIO(bytearray(_WIRE_BUF + txbuf))
+            self.out.seek(0)
+            out.write(self.out.read(self.out_n))
             self.out = out
             self.tx_size = txbuf
+            self._scratch = bytearray(txbuf)
         self.rx_n = self.tx_n = 0
         self.open = True
         self._last = time.ticks_us()
@@ -400,13 +422,13 @@ class _UartLine:
             m = self.out_n
             if m + k > _WIRE_BUF:
                 # the twin did not take() for seconds: what does not fit is
-                # lost, and the bytes still to send close the gap (a byte
-                # loop: this never happens in a lockstep run)
-                lost = m + k - _WIRE_BUF
-                self.out_lost += lost
+                # lost, and the bytes still to send close the gap
+                self.out_lost += m + k - _WIRE_BUF
                 out = self.out
-                for i in range(_WIRE_BUF, m + self.tx_n - lost):
-                    out[i] = out[i + lost]
+                out.seek(m + k)
+                out.readinto(self._scratch)
+                out.seek(_WIRE_BUF)
+                _write_part(out, self._scratch, 0, self.tx_n - k)
             self.out_n = m + k if m + k < _WIRE_BUF else _WIRE_BUF
             self.tx_n -= k
         else:
@@ -423,11 +445,17 @@ class _UartLine:
         """Bytes the board has sent so far (at the line rate)."""
         self._pump(time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us())
         n = self.out_n
-        sent = bytes(self.out[0:n])
-        if n:
+        if not n:
+            return b""
+        out = self.out
+        out.seek(0)
+        sent = out.read(n)
+        if self.tx_n:
             # what is still in the board's buffer moves to the front
-            self.out[0:self.tx_n] = self.out[n:n + self.tx_n]
-            self.out_n = 0
+            rest = out.read(self.tx_n)
+            out.seek(0)
+            out.write(rest)
+        self.out_n = 0
         return sent
 
     def pending_in(self):
@@ -457,9 +485,11 @@ class _UartLine:
         free = self.tx_size - self.tx_n
         n = end - start if end - start < free else free
         out = self.out
-        j = self.out_n + self.tx_n - start
-        for i in range(start, start + n):
-            out[j + i] = buf[i]
+        out.seek(self.out_n + self.tx_n)
+        if _STREAM_PARTS:  # _write_part() written out: the firmware's write path
+            out.write(buf, start, n)
+        else:
+            out.write(memoryview(buf)[start:start + n])
         self.tx_n += n
         return n
 
@@ -844,7 +874,7 @@ class _Twin:
 
     def pin_level(self, pin):
         """The level on a pin as the board and the outside both see it."""
-        n = _pin_id(pin)
+        n = pin if isinstance(pin, int) and 0 <= pin < _NUM_PINS else _pin_id(pin)
         mode = self._mode[n]
         if mode == 1:  # push-pull output drives the pad
             return self._latch[n]
