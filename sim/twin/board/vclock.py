@@ -146,7 +146,7 @@ def _ticks_add(t, delta):
     return (t + delta) & _TICKS_MAX
 
 
-# The firmware calls these a few dozen times a 10 ms slot; the interpreter's
+# The firmware calls these dozens of times a 20 ms frame; the interpreter's
 # own are native calls, several times cheaper than Python functions.
 ticks_diff = _ticks_diff
 ticks_add = _ticks_add
