@@ -180,3 +180,139 @@ def test_reading_an_emulated_device_allocates_nothing(mp):
             "put(0x6A, 0x10, 0x58)\nbuf = bytearray(16)\nw = bytearray(2)\ncmd = bytearray(b'\\x4a')")
     assert mp.alloc_bytes("time.sleep_ms(5); i2c.readfrom_mem_into(0x6A, 0x1E, buf)") == 0
     assert mp.alloc_bytes("i2c.writeto(0x76, cmd); i2c.readfrom_mem_into(0x76, 0xA2, w)") == 0
+
+
+# ------------------------------------------- what the fast paths must keep
+_REF_S16 = (
+    "def ref_s16(x):\n"
+    "    v = int(x + 0.5) if x >= 0 else -int(-x + 0.5)\n"
+    "    return max(-32768, min(32767, v))\n"
+    "def s16(lo, hi):\n"
+    "    v = lo | hi << 8\n"
+    "    return v - 65536 if v & 0x8000 else v\n"
+)
+
+
+def _awkward_values(lsb_expr, n=30):
+    # halves of a code (either sign), zeros of both signs, saturation, noise
+    import random
+    rnd = random.Random(7)
+    vals = ["0.0", "-0.0", "1e9", "-1e9", "%s * 32767.5" % lsb_expr, "-%s * 32768.5" % lsb_expr]
+    vals += ["%s * %r" % (lsb_expr, k + 0.5) for k in (-3, -2, -1, 0, 1, 2, 100)]
+    vals += [repr(rnd.uniform(-40.0, 40.0)) for _ in range(n)]
+    return vals
+
+
+def test_lsm6dsox_outputs_round_half_away_from_zero_and_clip(mp):
+    mp.exec(_REF_S16 + "d = machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x10, 0x58)\n"
+            "put(0x6A, 0x11, 0x54)\nbad = []\n")
+    for fs_xl, fs_g in ((0x58, 0x54), (0x5C, 0x5E), (0x50, 0x56)):
+        mp.exec("put(0x6A, 0x10, %d)\nput(0x6A, 0x11, %d)" % (fs_xl, fs_g))
+        vals = _awkward_values("d.accel_lsb()")
+        mp.exec("vals = [%s]\n" % ", ".join(vals) +
+                "for i in range(len(vals)):\n"
+                "    m = [vals[(i + k) % len(vals)] for k in range(6)]\n"
+                "    d.set_motion(*m)\n"
+                "    time.sleep_ms(5)\n"
+                "    r = reg(0x6A, 0x22, 12)\n"
+                "    got = [s16(r[2 * k], r[2 * k + 1]) for k in range(6)]\n"
+                "    want = [ref_s16(m[3 + k] / d.gyro_lsb()) for k in range(3)]\n"
+                "    want += [ref_s16(m[k] / d.accel_lsb()) for k in range(3)]\n"
+                "    if got != want:\n"
+                "        bad.append((m, got, want))\n")
+    assert mp.eval("bad") == []
+    # set_accel, set_gyro and set_temperature keep what the other set
+    mp.exec("d.set_motion(1.0, -2.0, 9.0, 0.1, -0.2, 0.3)\nd.set_gyro(0.5, 0.0, -0.5)\nd.set_temperature(30.0)\n"
+            "time.sleep_ms(5)\nr = reg(0x6A, 0x20, 14)\n"
+            "got = [s16(r[2 * k], r[2 * k + 1]) for k in range(7)]")
+    assert mp.eval("got == [ref_s16(5.0 * 256)] + [ref_s16(v / d.gyro_lsb()) for v in (0.5, 0.0, -0.5)]"
+                   " + [ref_s16(v / d.accel_lsb()) for v in (1.0, -2.0, 9.0)]") is True
+
+
+def test_lis3mdl_outputs_round_half_away_from_zero_and_clip_in_both_byte_orders(mp):
+    mp.exec(_REF_S16 + "d = machine.twin.attach(0, LIS3MDLDevice())\nput(0x1C, 0x20, 0x9C)\n"
+            "put(0x1C, 0x22, 0x00)\nbad = []\n")
+    for fs in (0x00, 0x20, 0x60):
+        vals = _awkward_values("(1 / d.lsb_per_gauss())")
+        mp.exec("put(0x1C, 0x21, %d)\nvals = [%s]\n" % (fs, ", ".join(vals)) +
+                "for i in range(len(vals)):\n"
+                "    b = [vals[(i + k) % len(vals)] for k in range(3)]\n"
+                "    d.set_field(*b)\n"
+                "    want = [ref_s16(v * d.lsb_per_gauss()) for v in b]\n"
+                "    for ble in (0x00, 0x02):\n"
+                "        put(0x1C, 0x23, ble)\n"
+                "        time.sleep_ms(13)\n"
+                "        r = reg(0x1C, 0x28 | 0x80, 6)\n"
+                "        if ble:\n"
+                "            r = [r[k ^ 1] for k in range(6)]\n"
+                "        got = [s16(r[2 * k], r[2 * k + 1]) for k in range(3)]\n"
+                "        if got != want:\n"
+                "            bad.append((b, ble, got, want))\n")
+    assert mp.eval("bad") == []
+    mp.exec("put(0x1C, 0x23, 0x00)\nd.set_temperature(31.0)\ntime.sleep_ms(13)\nr = reg(0x1C, 0x2E | 0x80, 2)")
+    assert mp.eval("s16(r[0], r[1])") == 48
+
+
+def test_register_reads_by_burst_wrap_and_repeat_read_the_registers(mp):
+    # The cached bursts, the first reads, wrap-around and repeated registers
+    # all read what the register file holds, and move the pointer as the chip.
+    mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x10, 0x58)\nput(0x6A, 0x11, 0x54)\n"
+            "d.set_motion(1.0, -2.0, 9.0, 0.1, -0.2, 0.3)\ntime.sleep_ms(5)\nreg(0x6A, 0x1E, 2)\n"
+            "put(0x6A, 0x10, 0x00)\nput(0x6A, 0x11, 0x00)\n"      # a sample latched, then stopped
+            "d.regs[0x7E] = 0xAB\nd.regs[0x7F] = 0xCD\nsnap = list(d.regs)")
+    for first, n in ((0x22, 12), (0x22, 12), (0x28, 6), (0x7E, 4), (0x7E, 4), (0x0F, 1), (0x11, 2), (0x11, 2)):
+        assert mp.eval("reg(0x6A, %d, %d)" % (first, n)) == [
+            mp.eval("snap[%d]" % ((first + i) & 0x7F)) for i in range(n)], (first, n)
+    assert mp.eval("snap[0x22:0x2E] != [0] * 12") is True
+    mp.exec("b1 = bytearray(2)\nb2 = bytearray(2)\n"
+            "i2c.readfrom_mem_into(0x6A, 0x0F, b1)\ni2c.readfrom_into(0x6A, b2)")
+    assert mp.eval("[list(b1), list(b2)]") == [[0x6C, 0x00], [0x00, 0x04]]   # read on from 0x11
+    mp.exec("put(0x6A, 0x12, 0x40)")                                        # IF_INC off
+    assert mp.eval("reg(0x6A, 0x12, 3)") == [0x40, 0x40, 0x40]
+    mp.exec("put(0x6A, 0x12, 0x44)")
+    assert mp.eval("reg(0x6A, 0x12, 3)") == [0x44, 0x00, 0x00]
+
+
+def test_a_device_that_does_not_answer_nacks_every_transfer(mp):
+    mp.exec("imu = machine.twin.attach(0, LSM6DSOXDevice())\nmag = machine.twin.attach(0, LIS3MDLDevice())\n"
+            "ms = machine.twin.attach(0, MS5837Device())\nb = bytearray(3)\n")
+    calls = ("i2c.readfrom_mem_into(%d, 0x0F, b)", "i2c.readfrom_into(%d, b)", "i2c.readfrom_mem(%d, 0x0F, 2)",
+             "i2c.readfrom(%d, 2)", "i2c.writeto(%d, b'\\x0f')", "i2c.writeto(%d, b'')",
+             "i2c.writeto_mem(%d, 0x10, b'\\x00')", "i2c.writevto(%d, (b'\\x0f', b'\\x00'))")
+    for dev, addr in (("imu", 0x6A), ("mag", 0x1C), ("ms", 0x76)):
+        mp.exec("%s.set_fault(i2c_device.FAULT_NACK)\nn0 = %s.transfers" % (dev, dev))
+        for call in calls:
+            with pytest.raises(Exception, match=r"OSError: \[Errno 5\] EIO"):
+                mp.exec(call % addr)
+        assert mp.eval("%s.transfers == n0" % dev) is True
+        mp.exec("%s.set_fault(i2c_device.FAULT_NONE)" % dev)
+    assert mp.eval("i2c.scan()") == [0x1C, 0x6A, 0x76]
+    mp.exec("i2c.writeto(0x76, b'\\x1e')")   # reset: the PROM reloads for 2.8 ms
+    for call in calls:
+        with pytest.raises(Exception, match=r"OSError: \[Errno 5\] EIO"):
+            mp.exec(call % 0x76)
+    mp.exec("time.sleep_us(2800)\ni2c.readfrom_mem_into(0x76, 0xA2, b)")
+    assert mp.eval("list(b)") == [C[1] >> 8, C[1] & 0xFF, 0]
+
+
+def test_ms5837_adc_read_gives_the_same_bytes_whatever_the_buffer(mp):
+    mp.exec("d = machine.twin.attach(0, MS5837Device())\nd.set(123456.0, 17.5)\nb3 = bytearray(3)\n"
+            "b5 = bytearray(5)\n"
+            "i2c.writeto(0x76, b'\\x4a')\ntime.sleep_ms(19)\ni2c.readfrom_mem_into(0x76, 0x00, b3)\n"
+            "i2c.writeto(0x76, b'\\x4a')\ntime.sleep_ms(19)\ni2c.readfrom_mem_into(0x76, 0x00, b5)\n"
+            "i2c.readfrom_mem_into(0x76, 0x00, b3)\nagain = list(b3)")
+    d1 = mp.eval("d.d1")
+    assert mp.eval("list(b5)") == [d1 >> 16, (d1 >> 8) & 0xFF, d1 & 0xFF, 0, 0]
+    assert mp.eval("again") == [0, 0, 0]
+    mp.exec("d.set_fault(i2c_device.FAULT_GARBAGE)\ni2c.writeto(0x76, b'\\x4a')\ntime.sleep_ms(19)\n"
+            "i2c.readfrom_mem_into(0x76, 0x00, b3)\ng = list(b3)\nd.set_fault(i2c_device.FAULT_NONE)\n"
+            "i2c.writeto(0x76, b'\\x4a')\ntime.sleep_ms(19)\ni2c.readfrom_mem_into(0x76, 0x00, b3)")
+    assert mp.eval("g") != [d1 >> 16, (d1 >> 8) & 0xFF, d1 & 0xFF]
+    assert mp.eval("list(b3)") == [d1 >> 16, (d1 >> 8) & 0xFF, d1 & 0xFF]
+
+
+def test_reading_the_magnetometer_allocates_nothing(mp):
+    mp.exec("machine.twin.attach(0, LIS3MDLDevice())\nput(0x1C, 0x20, 0xE2)\nput(0x1C, 0x22, 0x00)\n"
+            "buf = bytearray(9)")
+    assert mp.alloc_bytes("time.sleep_ms(7); i2c.readfrom_mem_into(0x1C, 0xA7, buf)") == 0
+    assert mp.alloc_bytes("time.sleep_ms(7); i2c.readfrom_mem_into(0x1C, 0x27, buf)") == 0

@@ -183,3 +183,202 @@ def test_machine_module_works_alone_on_the_real_clock():
         m.exec("import machine\ni2c = machine.I2C(0, sda=machine.Pin(4), scl=machine.Pin(5))")
         assert m.eval("i2c.scan()") == []
         assert m.eval("machine.reset_cause()") == 1
+
+
+# ------------------------------------------- the clock the emulation reads
+def test_ticks_add_refuses_an_interval_of_half_the_period_as_rp2_does(mp):
+    assert mp.eval("time.ticks_add(5, (1 << 29) - 1)") == 5 + (1 << 29) - 1
+    raises(mp, "time.ticks_add(5, 1 << 29)", "OverflowError")
+    raises(mp, "time.ticks_add(5, -(1 << 29))", "OverflowError")
+
+
+def test_the_python_ticks_match_micropythons_own(mp):
+    # CPython runs the twin on vclock's written-out ticks; MicroPython on its own.
+    from roboray.sim.twin.board import vclock
+    pairs = [(0, 0), (5, (1 << 30) - 3), ((1 << 30) - 3, 5), (1 << 29, 0), (0, 1 << 29), (123, 456)]
+    for a, b in pairs:
+        assert vclock.ticks_diff(a, b) == mp.eval("time.ticks_diff(%d, %d)" % (a, b)), (a, b)
+    for t, d in [((1 << 30) - 1, 1), (0, -1), (7, (1 << 29) - 1), (7, 1 - (1 << 29))]:
+        assert vclock.ticks_add(t, d) == mp.eval("time.ticks_add(%d, %d)" % (t, d)), (t, d)
+    with pytest.raises(OverflowError):
+        vclock.ticks_add(0, 1 << 29)
+
+
+def test_a_long_sleep_reaches_the_hook_in_steps_of_at_most_a_second(mp):
+    mp.exec("seen = []\nvclock.set_hook(lambda dt: seen.append(dt))\n"
+            "time.sleep_us(2500000)\ntime.sleep_ms(2000)\nvclock.advance(1000001)\nvclock.set_hook(None)")
+    assert mp.eval("seen") == [1000000, 1000000, 500000, 1000000, 1000000, 1000000, 1]
+    assert mp.eval("[time.ticks_ms(), time.time() - 1609459200]") == [5500, 5]
+    raises(mp, "vclock.advance(-1)", "time cannot go back")
+
+
+def test_the_clock_state_is_what_ticks_us_returns(mp):
+    mp.exec("time.sleep_us(1234)\nvclock.set_tick_cost_us(7)")
+    assert mp.eval("[vclock.now_us, vclock.tick_cost_us]") == [1234, 7]
+    assert mp.eval("time.ticks_us()") == 1241
+    mp.exec("vclock.set_tick_cost_us(0)")
+    assert mp.eval("[vclock.now_us, time.ticks_us(), time.ticks_cpu()]") == [1241, 1241, 1241]
+
+
+def test_the_emulations_clock_readings_cost_what_the_firmwares_do(mp):
+    # An overloaded CPU (tick cost) pays for every clock reading, the
+    # peripherals' included, as before they read the clock's state directly.
+    mp.exec("u = UART(0, 57600, tx=Pin(0), rx=Pin(1))\nw = WDT(timeout=1000)\n"
+            "from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice\n"
+            "from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice\n"
+            "imu = t.attach(0, LSM6DSOXDevice())\nmag = t.attach(0, LIS3MDLDevice())\n"
+            "i2c = I2C(0, sda=Pin(4), scl=Pin(5))\nb = bytearray(9)\n"
+            "def cost(code):\n"
+            "    t0 = vclock.now_us\n"
+            "    vclock.set_tick_cost_us(5)\n"
+            "    exec(code)\n"
+            "    vclock.set_tick_cost_us(0)\n"
+            "    return vclock.now_us - t0\n")
+    assert mp.eval("cost('u.any()')") == 5
+    assert mp.eval("cost('u.write(b\"x\")')") == 5
+    assert mp.eval("cost('w.feed()')") == 5
+    assert mp.eval("cost('t.check_watchdog()')") == 5
+    assert mp.eval("cost('i2c.readfrom_mem_into(0x6A, 0x1E, b)')") == 5
+    assert mp.eval("cost('i2c.readfrom_mem_into(0x1C, 0xA7, b)')") == 0   # powered down: no reading
+    i2c_put = "i2c.writeto_mem(0x1C, 0x22, b'\\x00')"
+    mp.exec(i2c_put)
+    assert mp.eval("cost('i2c.readfrom_mem_into(0x1C, 0xA7, b)')") == 5
+
+
+# ------------------------------------------- UART pacing, against a model
+_UART_MODEL = """
+class Model:
+    # The line as the board moves it, a byte at a time: the specification
+    # the emulation's counters must follow.
+    def __init__(self, rxbuf, txbuf, byte_ns, cap):
+        self.rxsize, self.txsize, self.byte_ns, self.cap = rxbuf, txbuf, byte_ns, cap
+        self.rx, self.tx, self.wire_in, self.wire_out = [], [], [], []
+        self.ci = self.co = self.dropped = self.lost = 0
+        self.last = time.ticks_us()
+
+    def pump(self):
+        now = time.ticks_us()
+        dt = time.ticks_diff(now, self.last)
+        self.last = now
+        if dt <= 0:
+            return
+        dt = min(dt, 100000)
+        if self.wire_in:
+            credit = self.ci + dt * 1000
+            k = min(credit // self.byte_ns, len(self.wire_in))
+            self.ci = credit - k * self.byte_ns
+            for _ in range(k):
+                b = self.wire_in.pop(0)
+                if len(self.rx) < self.rxsize:
+                    self.rx.append(b)
+                else:
+                    self.dropped += 1
+        else:
+            self.ci = 0
+        if self.tx:
+            credit = self.co + dt * 1000
+            k = min(credit // self.byte_ns, len(self.tx))
+            self.co = credit - k * self.byte_ns
+            for _ in range(k):
+                b = self.tx.pop(0)
+                if len(self.wire_out) < self.cap:
+                    self.wire_out.append(b)
+                else:
+                    self.lost += 1
+        else:
+            self.co = 0
+
+def drive(ops):
+    # the same operations on the emulated UART and on the model; what each shows
+    u = UART(0, 57600, tx=Pin(0), rx=Pin(1), rxbuf=64, txbuf=32)
+    line = t.uart(0)
+    line.take()   # what earlier tests left on the wire; the counters go on from theirs
+    m = Model(64, 32, line.byte_ns, 8192)
+    m.dropped, m.lost = line.rx_dropped, line.out_lost
+    src = bytearray(range(256))
+    buf = bytearray(64)
+    fed = 0
+    got, want = [], []
+    for op in ops:
+        kind = op[0]
+        if kind == 'sleep':
+            time.sleep_us(op[1])
+            continue
+        if kind != 'init':
+            m.pump()
+        if kind == 'feed':
+            data = bytes((fed + i) & 0xFF for i in range(op[1]))
+            fed += op[1]
+            line.feed(data)
+            m.wire_in.extend(data)
+        elif kind == 'any':
+            got.append(u.any())
+            want.append(len(m.rx))
+        elif kind == 'read':
+            # no more than any() says, as the radio reads: a read short of
+            # its count would wait for the next character (timeout_char)
+            n = u.readinto(buf, min(op[1], u.any()))
+            got.append(bytes(buf[:n]) if n else None)
+            k = min(op[1], len(m.rx))
+            want.append(bytes(m.rx[:k]) if k else None)
+            m.rx = m.rx[k:]
+        elif kind == 'write':
+            off, n = op[1], op[2]
+            got.append(u.write(src, off, n))
+            k = min(n, m.txsize - len(m.tx))
+            m.tx.extend(src[off:off + k])
+            want.append(k if k else None)
+        elif kind == 'take':
+            got.append(line.take())
+            want.append(bytes(m.wire_out))
+            m.wire_out = []
+        elif kind == 'init':
+            # a new configuration: the buffers start empty and the line's
+            # clock restarts (what was on the wire meanwhile waits)
+            u.init(57600, rxbuf=op[1], txbuf=op[2])
+            m.rxsize, m.txsize = op[1], op[2]
+            m.rx, m.tx = [], []
+            m.last = time.ticks_us()
+        got.append((line.rx_dropped, line.out_lost, line.pending_in(), line.tx_n))
+        want.append((m.dropped, m.lost, len(m.wire_in), len(m.tx)))
+    return got, want
+"""
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_uart_pacing_moves_the_same_bytes_as_a_byte_at_a_time_line(mp, seed):
+    import random
+    rnd = random.Random(seed)
+    ops = []
+    for _ in range(400):
+        r = rnd.random()
+        if r < 0.3:
+            ops.append(("sleep", rnd.choice([0, 1, 170, 174, 999, 5000, 20000, 150000])))
+        elif r < 0.45:
+            ops.append(("feed", rnd.randint(0, 120)))
+        elif r < 0.6:
+            ops.append(("any",))
+        elif r < 0.72:
+            ops.append(("read", rnd.randint(1, 64)))
+        elif r < 0.9:
+            off = rnd.randint(0, 200)
+            ops.append(("write", off, rnd.randint(0, 40)))
+        elif r < 0.98 or seed % 3 == 0:   # some runs hardly ever take: the wire overflows
+            ops.append(("take",) if r < 0.97 or seed % 3 else ("sleep", 100000))
+        else:
+            ops.append(("init", rnd.choice([32, 64, 100]), rnd.choice([32, 48])))
+    if seed % 3 == 0:   # write for seconds without taking: more than the wire holds
+        ops += [("write", 0, 32), ("sleep", 6000)] * 400 + [("take",), ("any",)]
+    mp.exec(_UART_MODEL)
+    mp.exec("got, want = drive(%r)" % (ops,))
+    got, want = mp.eval("got"), mp.eval("want")
+    assert got == want
+    if seed % 3 == 0:
+        assert mp.eval("t.uart(0).out_lost") > 0
+
+
+def test_uart_polling_allocates_nothing(mp):
+    mp.exec("u = UART(0, 57600, tx=Pin(0), rx=Pin(1))\nline = t.uart(0)\nline.feed(bytes(300))\n"
+            "rx = bytearray(64)\ntx = bytearray(range(100))\nline.take()")
+    assert mp.alloc_bytes("time.sleep_us(10000); u.any(); u.readinto(rx, 40); u.write(tx, 30, 50)") == 0
+    assert mp.alloc_bytes("time.sleep_us(100000); u.any(); u.write(tx, 0, 100)") == 0   # overflowing

@@ -1,10 +1,14 @@
 """What every emulated I2C device shares: the bus protocol and the faults.
 
 MicroPython code, run by the twin next to the firmware. A device answers
-the emulated ``machine.I2C`` through ``answers``, ``read``, ``write``,
-``read_mem`` and ``write_mem`` (see ``machine.py``); the read paths write
-into the caller's buffer and allocate nothing, so a driver's allocation
-measured against an emulated device is the driver's own.
+the emulated ``machine.I2C`` through ``read``, ``write``, ``read_mem`` and
+``write_mem``, which raise ``OSError(EIO)`` when it does not acknowledge,
+and ``answers`` (False: it would NACK) for a scan (see ``machine.py``); the
+read paths write into the caller's buffer and allocate nothing, so a
+driver's allocation measured against an emulated device is the driver's
+own. The firmware reads its sensors a few hundred times a second, so the
+read path is written out flat: a Python call costs more on MicroPython than
+the work it would hide.
 
 Faults the twin injects with ``set_fault``:
 
@@ -28,6 +32,8 @@ FAULT_GARBAGE = const(2)
 FAULT_STICK = const(3)
 
 FAULT_NAMES = ("none", "nack", "garbage", "stick")
+
+_EIO = const(5)
 
 
 class Device:
@@ -69,16 +75,30 @@ class Device:
 class RegisterDevice(Device):
     """A chip with 8-bit registers behind an address pointer.
 
-    Subclasses give ``_reset_registers()``, ``_auto_increment(subaddr)``,
-    ``_sync()`` (bring outputs up to the present time), ``_after_read(first,
-    count)`` (registers ``first .. first+count-1`` were read) and
-    ``_write_reg(reg, value)``.
+    Subclasses give ``_reset_registers()``, ``_sync()`` (bring outputs up to
+    the present time), ``_write_reg(reg, value)`` and ``_read_clears(first,
+    count)``: the bits of ``regs[self._status]`` that reading registers
+    ``first .. first+count-1`` clears, a function of the two alone (it is
+    asked once per burst and remembered). The pointer auto-increments while
+    ``self._inc_all`` is true, else when the sub-address has a bit of
+    ``INC_BIT`` set.
     """
+
+    #: Sub-address bit that asks for auto-increment (0: none does).
+    INC_BIT = 0
+    #: The pointer auto-increments whatever the sub-address (a subclass may
+    #: keep this per instance, following a control register).
+    _inc_all = True
+    #: The status register reads clear bits of.
+    _status = 0
 
     def __init__(self, address, size=128, clock=None):
         Device.__init__(self, address, clock)
         self.regs = bytearray(size)
-        self._views = {}
+        self._mask = size - 1
+        # (view of the registers, status bits kept, pointer after) by burst
+        # (first << 8 | count)
+        self._bursts = {}
         self._ptr = 0
         self._inc = True
         self._reset_registers()
@@ -88,10 +108,62 @@ class RegisterDevice(Device):
 
     # bus side
     def read_mem(self, memaddr, buf):
-        self._set_pointer(memaddr)
-        self.read(buf)
+        """Set the pointer to ``memaddr`` and read ``buf`` full."""
+        if self.fault and self.fault != FAULT_STICK:
+            if self.fault == FAULT_NACK:
+                raise OSError(_EIO)  # rp2's error for a NACK
+            self._set_pointer(memaddr)
+            self.read(buf)
+            return
+        self._inc = self._inc_all or memaddr & self.INC_BIT
+        self._ptr = memaddr & self._mask
+        self.transfers += 1
+        self._sync()
+        # A burst read before is one slice copy through a view of its
+        # registers, with the status bits it keeps and where it leaves the
+        # pointer: no per-byte Python loop, no allocation.
+        burst = self._bursts.get((self._ptr << 8) | len(buf)) if self._inc else None
+        if burst is None:
+            self._read_slow(buf)
+            return
+        buf[:] = burst[0]
+        self._ptr = burst[2]
+        self.regs[self._status] &= burst[1]
+
+    def read(self, buf):
+        """Read ``buf`` full on from the pointer."""
+        if self.fault == FAULT_NACK:
+            raise OSError(_EIO)
+        self.transfers += 1
+        if self.fault == FAULT_GARBAGE:
+            self._fill_noise(buf)
+            return
+        self._sync()
+        self._read_slow(buf)
+
+    def _read_slow(self, buf):
+        # the first read of a burst (kept for the next ones), or one that
+        # wraps around or repeats a register
+        regs = self.regs
+        p = self._ptr
+        n = len(buf)
+        if not self._inc:
+            v = regs[p]
+            for i in range(n):
+                buf[i] = v
+            regs[self._status] &= 0xFF & ~self._read_clears(p, 1)
+            return
+        for i in range(n):
+            buf[i] = regs[(p + i) & self._mask]
+        self._ptr = (p + n) & self._mask
+        keep = 0xFF & ~self._read_clears(p, n)
+        regs[self._status] &= keep
+        if p + n <= len(regs):
+            self._bursts[(p << 8) | n] = (memoryview(regs)[p:p + n], keep, self._ptr)
 
     def write_mem(self, memaddr, buf):
+        if self.fault == FAULT_NACK:
+            raise OSError(_EIO)  # rp2's error for a NACK
         self.transfers += 1
         self._set_pointer(memaddr)
         for i in range(len(buf)):
@@ -99,6 +171,8 @@ class RegisterDevice(Device):
             self._advance()
 
     def write(self, buf):
+        if self.fault == FAULT_NACK:
+            raise OSError(_EIO)  # rp2's error for a NACK
         self.transfers += 1
         if len(buf) == 0:
             return
@@ -107,73 +181,24 @@ class RegisterDevice(Device):
             self._write_reg(self._ptr, buf[i])
             self._advance()
 
-    def read(self, buf):
-        self.transfers += 1
-        if self.fault == FAULT_GARBAGE:
-            self._fill_noise(buf)
-            return
-        self._sync()
-        regs = self.regs
-        p = self._ptr
-        n = len(buf)
-        if not self._inc:
-            v = regs[p]
-            for i in range(n):
-                buf[i] = v
-            self._after_read(p, 1)
-            return
-        if p + n <= len(regs):
-            # One slice copy through a view made on first use of this burst:
-            # no allocation after that, and no per-byte Python loop.
-            key = (p << 8) | n
-            view = self._views.get(key)
-            if view is None:
-                view = memoryview(regs)[p:p + n]
-                self._views[key] = view
-            buf[0:n] = view
-        else:
-            mask = len(regs) - 1
-            for i in range(n):
-                buf[i] = regs[(p + i) & mask]
-        self._ptr = (p + n) & (len(regs) - 1)
-        self._after_read(p, n)
-
     def _set_pointer(self, subaddr):
-        self._inc = self._auto_increment(subaddr)
-        self._ptr = subaddr & (len(self.regs) - 1)
+        self._inc = self._inc_all or subaddr & self.INC_BIT
+        self._ptr = subaddr & self._mask
 
     def _advance(self):
         if self._inc:
-            self._ptr = (self._ptr + 1) & (len(self.regs) - 1)
+            self._ptr = (self._ptr + 1) & self._mask
 
     # to override
     def _reset_registers(self):
         pass
 
-    def _auto_increment(self, subaddr):
-        return True
-
     def _sync(self):
         pass
 
-    def _after_read(self, first, count):
-        pass
+    def _read_clears(self, first, count):
+        return 0
 
     def _write_reg(self, reg, value):
         pass
 
-
-def put_s16_le(regs, at, value):
-    """Store a signed 16-bit value little-endian (as the ST parts do)."""
-    regs[at] = value & 0xFF
-    regs[at + 1] = (value >> 8) & 0xFF
-
-
-def clamp_s16(x):
-    """Round a physical value in LSB to the nearest code the ADC can output."""
-    v = int(x + 0.5) if x >= 0 else -int(-x + 0.5)
-    if v > 32767:
-        return 32767
-    if v < -32768:
-        return -32768
-    return v

@@ -24,7 +24,8 @@ Inputs: ``set_field`` (gauss, sensor axes) and ``set_temperature`` (C).
 Faults as in ``i2c_device``.
 """
 
-from array import array
+from math import copysign
+from struct import pack_into
 
 try:
     from micropython import const
@@ -32,7 +33,7 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-from roboray.sim.twin.board.i2c_device import FAULT_STICK, RegisterDevice, clamp_s16
+from roboray.sim.twin.board.i2c_device import FAULT_STICK, RegisterDevice
 
 ADDRESS = const(0x1C)
 WHO_AM_I_VALUE = const(0x3D)
@@ -48,6 +49,8 @@ _OUT_X_L = const(0x28)
 _TEMP_OUT_L = const(0x2E)
 _INT_CFG = const(0x30)
 
+_TICKS_MAX = const(0x3FFFFFFF)
+
 #: LSB per gauss by FS code.
 _LSB_PER_GAUSS = (6842, 3421, 2281, 1711)
 #: Sample period by DO code (0.625 .. 80 Hz), us.
@@ -61,52 +64,52 @@ _WRITABLE = (0x05, 0x06, 0x07, 0x08, 0x09, 0x0A, 0x20, 0x21, 0x22, 0x23, 0x24, 0
 class LIS3MDLDevice(RegisterDevice):
     """An LIS3MDL on the bus; feed it with ``set_field``."""
 
+    INC_BIT = 0x80
+    _inc_all = False
+    _status = _STATUS
+
     def __init__(self, address=ADDRESS, clock=None):
-        self._phys = array("d", [25.0, 0.2, 0.0, 0.4])  # temp C, field gauss
-        self._raw = array("h", [0] * 4)
+        self._temp_c = 25.0
+        self._b = (0.2, 0.0, 0.4)  # set_field()'s arguments, gauss
         # OUT_X..OUT_Z and TEMP_OUT as the next sample will show them
         self._field = (bytearray(6), bytearray(6))  # little-, big-endian
         self._temp = (bytearray(2), bytearray(2))
+        self._k = 1      # lsb_per_gauss() at the configured full scale
+        self._period = 0  # _period_us() in the configured mode
         RegisterDevice.__init__(self, address, 128, clock)
 
     # ------------------------------------------------------------ twin side
     def set_field(self, bx, by, bz):
         """Magnetic flux density along the sensor's axes, gauss."""
-        p = self._phys
-        p[1] = bx
-        p[2] = by
-        p[3] = bz
-        self._quantise()
+        self._b = (bx, by, bz)
+        # Each value to the nearest code, halves away from zero, clipped to
+        # 16 bits (int(x + copysign(0.5, x)) rounds as x + 0.5 above zero
+        # and x - 0.5 below, bit for bit), in both byte orders: a helper
+        # call a value would cost more than the arithmetic.
+        k = self._k
+        x = max(-32768, min(32767, int(bx * k + copysign(0.5, bx))))
+        y = max(-32768, min(32767, int(by * k + copysign(0.5, by))))
+        z = max(-32768, min(32767, int(bz * k + copysign(0.5, bz))))
+        le, be = self._field
+        pack_into("<hhh", le, 0, x, y, z)
+        pack_into(">hhh", be, 0, x, y, z)
 
     def set_temperature(self, temp_c):
-        self._phys[0] = temp_c
+        self._temp_c = temp_c
         self._quantise()
 
     def lsb_per_gauss(self):
         return _LSB_PER_GAUSS[(self.regs[_CTRL_REG2] >> 5) & 3]
 
     def _quantise(self):
-        # both byte orders, written out (the twin calls this every step)
-        p = self._phys
-        r = self._raw
-        r[0] = clamp_s16((p[0] - 25.0) * 8.0)
-        k = self.lsb_per_gauss()
-        r[1] = clamp_s16(p[1] * k)
-        r[2] = clamp_s16(p[2] * k)
-        r[3] = clamp_s16(p[3] * k)
-        le, be = self._field
-        for i in range(3):
-            v = r[1 + i]
-            lo = v & 0xFF
-            hi = (v >> 8) & 0xFF
-            le[2 * i] = lo
-            le[2 * i + 1] = hi
-            be[2 * i] = hi
-            be[2 * i + 1] = lo
-        v = r[0]
+        # all outputs again, after a new full scale or temperature
+        x = (self._temp_c - 25.0) * 8.0
+        v = max(-32768, min(32767, int(x + copysign(0.5, x))))
         le, be = self._temp
-        le[0] = be[1] = v & 0xFF
-        le[1] = be[0] = (v >> 8) & 0xFF
+        pack_into("<h", le, 0, v)
+        pack_into(">h", be, 0, v)
+        self._k = self.lsb_per_gauss()
+        self.set_field(*self._b)
 
     def _period_us(self):
         md = self.regs[_CTRL_REG3] & 3
@@ -127,10 +130,8 @@ class LIS3MDLDevice(RegisterDevice):
         regs[_CTRL_REG3] = 0x03
         regs[_INT_CFG] = 0xE8
         self._next = 0
+        self._period = 0  # power-down
         self._quantise()
-
-    def _auto_increment(self, subaddr):
-        return bool(subaddr & 0x80)
 
     def _write_reg(self, reg, value):
         if reg not in _WRITABLE:
@@ -138,35 +139,37 @@ class LIS3MDLDevice(RegisterDevice):
         if reg == _CTRL_REG2 and value & 0x0C:
             self._reset_registers()  # SOFT_RST / REBOOT
             return
-        was = self._period_us()
+        was = self._period
         self.regs[reg] = value
         if reg == _CTRL_REG2:
             self._quantise()
-        period = self._period_us()
+        period = self._period = self._period_us()
         if period and (not was or reg == _CTRL_REG3):
             self._next = self.clock.ticks_add(self.clock.ticks_us(), period)
 
     def _sync(self):
-        period = self._period_us()
+        period = self._period
         if not period:
             return
         clock = self.clock
-        late = clock.ticks_diff(clock.ticks_us(), self._next)
+        late = clock.ticks_diff(clock.now_us if not clock.tick_cost_us else clock.ticks_us(), self._next)
         if late < 0:
             return
-        self._next = clock.ticks_add(self._next, (late // period + 1) * period)
+        # the next sample on the grid (masked: after a long gap the sum can
+        # exceed the interval ticks_add accepts)
+        self._next = (self._next + (late // period + 1) * period) & _TICKS_MAX
         regs = self.regs
         if not self.fault == FAULT_STICK:
             be = 1 if regs[_CTRL_REG4] & 0x02 else 0
             regs[_OUT_X_L:_OUT_X_L + 6] = self._field[be]
             if regs[_CTRL_REG1] & 0x80:
                 regs[_TEMP_OUT_L:_TEMP_OUT_L + 2] = self._temp[be]
-        if regs[_STATUS] & 0x08 or late >= period:
-            regs[_STATUS] |= 0xF0  # overrun: a sample was overwritten unread
-        regs[_STATUS] |= 0x0F
+        # new data; overrun when a sample was overwritten unread
+        regs[_STATUS] |= 0xFF if regs[_STATUS] & 0x08 or late >= period else 0x0F
         if regs[_CTRL_REG3] & 3 == 1:
             regs[_CTRL_REG3] |= 3  # single conversion done: power down
+            self._period = 0
 
-    def _after_read(self, first, count):
-        if first < _OUT_X_L + 6 and first + count > _OUT_X_L:
-            self.regs[_STATUS] = 0
+    def _read_clears(self, first, count):
+        # reading the outputs clears the whole status register
+        return 0xFF if first < _OUT_X_L + 6 and first + count > _OUT_X_L else 0

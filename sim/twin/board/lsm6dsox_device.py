@@ -23,7 +23,8 @@ a driver configures the chip. Inputs from the twin, in the sensor's axes:
 """
 
 import math
-from array import array
+from math import copysign
+from struct import pack_into
 
 try:
     from micropython import const
@@ -31,12 +32,7 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-from roboray.sim.twin.board.i2c_device import (
-    FAULT_STICK,
-    RegisterDevice,
-    clamp_s16,
-    put_s16_le,
-)
+from roboray.sim.twin.board.i2c_device import FAULT_STICK, RegisterDevice
 
 ADDRESS = const(0x6A)
 WHO_AM_I_VALUE = const(0x6C)
@@ -51,6 +47,8 @@ _STATUS = const(0x1E)
 _OUT_TEMP_L = const(0x20)
 _OUTX_L_G = const(0x22)
 _OUTX_L_A = const(0x28)
+
+_TICKS_MAX = const(0x3FFFFFFF)
 
 _XLDA = const(0x01)
 _GDA = const(0x02)
@@ -70,66 +68,56 @@ _WRITABLE = (0x01, 0x02, 0x04, 0x07, 0x08, 0x09, 0x0A, 0x0B, 0x0C, 0x0D, 0x0E,
 class LSM6DSOXDevice(RegisterDevice):
     """An LSM6DSOX on the bus; feed it with ``set_accel``/``set_gyro``."""
 
+    _status = _STATUS
+
     def __init__(self, address=ADDRESS, clock=None):
-        self._phys = array("d", [25.0, 0.0, 0.0, 0.0, 0.0, 0.0, G])  # temp, gyro, accel
-        self._raw = array("h", [0] * 7)
+        self._temp_c = 25.0
+        self._motion = (0.0, 0.0, G, 0.0, 0.0, 0.0)  # set_motion()'s arguments
         # output registers 0x20..0x2D as the next sample will show them
         self._temp = bytearray(2)
         self._gyro = bytearray(6)
         self._accel = bytearray(6)
+        # LSB sizes at the configured full scales (``gyro_lsb``, ``accel_lsb``)
+        # and sample periods at the configured rates (0: off), us
+        self._g_lsb = 1.0
+        self._a_lsb = 1.0
+        self._xl_period = 0
+        self._g_period = 0
         RegisterDevice.__init__(self, address, 128, clock)
 
     # ------------------------------------------------------------ twin side
     def set_accel(self, ax, ay, az):
         """Specific force along the sensor's axes, m/s^2 (+g on z lying flat)."""
-        p = self._phys
-        p[4] = ax
-        p[5] = ay
-        p[6] = az
-        self._quantise()
+        m = self._motion
+        self.set_motion(ax, ay, az, m[3], m[4], m[5])
 
     def set_gyro(self, gx, gy, gz):
         """Angular rate about the sensor's axes, rad/s."""
-        p = self._phys
-        p[1] = gx
-        p[2] = gy
-        p[3] = gz
-        self._quantise()
+        m = self._motion
+        self.set_motion(m[0], m[1], m[2], gx, gy, gz)
 
     def set_temperature(self, temp_c):
-        self._phys[0] = temp_c
+        self._temp_c = temp_c
         self._quantise()
 
     def set_motion(self, ax, ay, az, gx, gy, gz):
-        """``set_accel`` and ``set_gyro`` at once: the twin's step, so the
-        same quantisation as ``_quantise`` written out, the temperature left
-        as it is."""
-        p = self._phys
-        p[1] = gx
-        p[2] = gy
-        p[3] = gz
-        p[4] = ax
-        p[5] = ay
-        p[6] = az
-        r = self._raw
-        g = self.gyro_lsb()
-        a = self.accel_lsb()
-        r[1] = clamp_s16(gx / g)
-        r[2] = clamp_s16(gy / g)
-        r[3] = clamp_s16(gz / g)
-        r[4] = clamp_s16(ax / a)
-        r[5] = clamp_s16(ay / a)
-        r[6] = clamp_s16(az / a)
-        b = self._gyro
-        for i in range(3):
-            v = r[1 + i]
-            b[2 * i] = v & 0xFF
-            b[2 * i + 1] = (v >> 8) & 0xFF
-        b = self._accel
-        for i in range(3):
-            v = r[4 + i]
-            b[2 * i] = v & 0xFF
-            b[2 * i + 1] = (v >> 8) & 0xFF
+        """``set_accel`` and ``set_gyro`` at once (the twin's step); the
+        temperature stays as it is."""
+        self._motion = (ax, ay, az, gx, gy, gz)
+        # Each value to the nearest code, halves away from zero, clipped to
+        # 16 bits (int(x + copysign(0.5, x)) rounds as x + 0.5 above zero
+        # and x - 0.5 below, bit for bit), straight into the output bytes:
+        # a helper call a value would cost more than the arithmetic.
+        g = self._g_lsb
+        pack_into("<hhh", self._gyro, 0,
+                  max(-32768, min(32767, int(gx / g + copysign(0.5, gx)))),
+                  max(-32768, min(32767, int(gy / g + copysign(0.5, gy)))),
+                  max(-32768, min(32767, int(gz / g + copysign(0.5, gz)))))
+        a = self._a_lsb
+        pack_into("<hhh", self._accel, 0,
+                  max(-32768, min(32767, int(ax / a + copysign(0.5, ax)))),
+                  max(-32768, min(32767, int(ay / a + copysign(0.5, ay)))),
+                  max(-32768, min(32767, int(az / a + copysign(0.5, az)))))
 
     def accel_lsb(self):
         """m/s^2 per LSB at the configured full scale."""
@@ -142,18 +130,12 @@ class LSM6DSOXDevice(RegisterDevice):
         return mdps * 1e-3 * math.pi / 180.0
 
     def _quantise(self):
-        p = self._phys
-        r = self._raw
-        r[0] = clamp_s16((p[0] - 25.0) * 256.0)
-        g = self.gyro_lsb()
-        a = self.accel_lsb()
-        for i in range(3):
-            r[1 + i] = clamp_s16(p[1 + i] / g)
-            r[4 + i] = clamp_s16(p[4 + i] / a)
-        put_s16_le(self._temp, 0, r[0])
-        for i in range(3):
-            put_s16_le(self._gyro, 2 * i, r[1 + i])
-            put_s16_le(self._accel, 2 * i, r[4 + i])
+        # all outputs again, after a new full scale or temperature
+        x = (self._temp_c - 25.0) * 256.0
+        pack_into("<h", self._temp, 0, max(-32768, min(32767, int(x + copysign(0.5, x)))))
+        self._g_lsb = self.gyro_lsb()
+        self._a_lsb = self.accel_lsb()
+        self.set_motion(*self._motion)
 
     # ---------------------------------------------------------- chip model
     def _reset_registers(self):
@@ -163,8 +145,11 @@ class LSM6DSOXDevice(RegisterDevice):
         regs[_WHO_AM_I] = WHO_AM_I_VALUE
         regs[_CTRL3_C] = 0x04
         regs[_CTRL9_XL] = 0xE0
+        self._inc_all = True  # IF_INC
         self._next_xl = 0
         self._next_g = 0
+        self._xl_period = 0
+        self._g_period = 0
         self._quantise()
 
     def _write_reg(self, reg, value):
@@ -179,49 +164,50 @@ class LSM6DSOXDevice(RegisterDevice):
         if reg == _CTRL1_XL:
             if (old >> 4) == 0 and (value >> 4):
                 self._next_xl = self.clock.ticks_add(now, _ODR_US[value >> 4])
+            self._xl_period = _ODR_US[value >> 4]
             self._quantise()
         elif reg == _CTRL2_G:
             if (old >> 4) == 0 and (value >> 4):
                 self._next_g = self.clock.ticks_add(now, _ODR_US[value >> 4] if value >> 4 < 11 else 0)
+            self._g_period = _ODR_US[value >> 4] if value >> 4 < 11 else 0  # 1.6 Hz: accelerometer only
             self._quantise()
-
-    def _auto_increment(self, subaddr):
-        return bool(self.regs[_CTRL3_C] & 0x04)
+        elif reg == _CTRL3_C:
+            self._inc_all = value & 0x04
 
     def _sync(self):
         clock = self.clock
-        now = clock.ticks_us()
+        now = clock.now_us if not clock.tick_cost_us else clock.ticks_us()
         regs = self.regs
-        stuck = self.fault == FAULT_STICK
-        code = regs[_CTRL1_XL] >> 4
-        if code:
-            period = _ODR_US[code]
+        # Samples are latched on a grid of ODR periods; a late read skips the
+        # missed ones (the sum is masked here, since after a long gap it can
+        # exceed the interval ticks_add accepts).
+        period = self._xl_period
+        if period:
             late = clock.ticks_diff(now, self._next_xl)
             if late >= 0:
-                self._next_xl = clock.ticks_add(self._next_xl, (late // period + 1) * period)
-                if not stuck:
+                self._next_xl = (self._next_xl + (late // period + 1) * period) & _TICKS_MAX
+                if self.fault != FAULT_STICK:
                     regs[_OUTX_L_A:_OUTX_L_A + 6] = self._accel
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                 regs[_STATUS] |= _XLDA | _TDA
-        code = regs[_CTRL2_G] >> 4
-        if code and code < 11:
-            period = _ODR_US[code]
+        period = self._g_period
+        if period:
             late = clock.ticks_diff(now, self._next_g)
             if late >= 0:
-                self._next_g = clock.ticks_add(self._next_g, (late // period + 1) * period)
-                if not stuck:
+                self._next_g = (self._next_g + (late // period + 1) * period) & _TICKS_MAX
+                if self.fault != FAULT_STICK:
                     regs[_OUTX_L_G:_OUTX_L_G + 6] = self._gyro
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                 regs[_STATUS] |= _GDA | _TDA
 
-    def _after_read(self, first, count):
+    def _read_clears(self, first, count):
         # Reading any byte of an output clears its data-ready bit.
         end = first + count
-        st = self.regs[_STATUS]
+        bits = 0
         if first < _OUTX_L_A + 6 and end > _OUTX_L_A:
-            st &= ~_XLDA & 0xFF
+            bits |= _XLDA
         if first < _OUTX_L_G + 6 and end > _OUTX_L_G:
-            st &= ~_GDA & 0xFF
+            bits |= _GDA
         if first < _OUT_TEMP_L + 2 and end > _OUT_TEMP_L:
-            st &= ~_TDA & 0xFF
-        self.regs[_STATUS] = st
+            bits |= _TDA
+        return bits

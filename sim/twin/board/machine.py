@@ -4,7 +4,7 @@ MicroPython code: the twin runs it inside the interpreter that runs the
 firmware, as ``sys.modules['machine']``; the WebAssembly port has no built-in
 ``machine``, so the file also works alone as ``/lib/machine.py`` on the
 virtual board. It imports nothing but ``time`` (the virtual clock when the
-twin installed one, the real clock otherwise).
+twin installed one, the real clock otherwise) and ``io``.
 
 With nothing attached it is a bare Pico 2: ``I2C.scan()`` returns ``[]``
 and any transfer raises ``OSError(EIO)`` as rp2 does on a NACK; pins read
@@ -14,9 +14,11 @@ it would on the board). What the firmware sees is all it can see; the other
 side of every peripheral belongs to the twin, through ``twin``:
 
 - I2C: ``twin.attach(bus_id, device)`` puts an emulated device on a bus at
-  ``device.address``. A device offers ``answers()`` (False: NACK),
-  ``read(buf)``, ``write(buf)``, ``read_mem(memaddr, buf)`` and
-  ``write_mem(memaddr, buf)``, and ``power_on()`` for a power cycle.
+  ``device.address``. A device offers ``read(buf)``, ``write(buf)``,
+  ``read_mem(memaddr, buf)`` and ``write_mem(memaddr, buf)``, which raise
+  ``OSError(EIO)`` when it does not acknowledge (a NACK), ``answers()``
+  (False: it would NACK) for ``scan()``, and ``power_on()`` for a power
+  cycle.
 - GPIO: ``twin.set_pin(pin, level)`` drives an input (None: undriven, the
   pull decides); ``twin.pin_level(pin)`` reads any pin back.
 - ADC: ``twin.set_adc_volts(channel, volts)`` or ``set_adc_u16``.
@@ -37,8 +39,13 @@ side of every peripheral belongs to the twin, through ``twin``:
 ``mem32`` emulates only the watchdog's CTRL register (its ENABLE bit), the
 one register the firmware writes. Not emulated: SPI, SoftI2C, SoftSPI,
 Timer, RTC, Signal, I2S, mem8/16.
+
+The firmware polls its UART and feeds its watchdog every slot, so those
+paths read the virtual clock's state directly (``vclock.now_us``, what
+``ticks_us()`` returns, without a Python call) unless readings cost time.
 """
 
+import io
 import time
 
 try:
@@ -63,6 +70,25 @@ _MAX_GAP_US = const(100000)  # longest interval paced at once (keeps ints small)
 
 PWRON_RESET = const(1)
 WDT_RESET = const(3)
+
+#: ``time`` is the twin's virtual clock (not the host's real one).
+_VCLOCK = hasattr(time, "tick_cost_us")
+
+#: MicroPython's streams write a part of a buffer, ``write(buf, off, n)``,
+#: without a view of it (a memoryview slice allocates there); CPython's
+#: take the view.
+try:
+    io.BytesIO().write(b"", 0, 0)
+    _STREAM_PARTS = True
+except TypeError:
+    _STREAM_PARTS = False
+
+
+def _write_part(stream, buf, off, n):
+    if _STREAM_PARTS:
+        stream.write(buf, off, n)
+    else:
+        stream.write(memoryview(buf)[off:off + n])
 
 
 class BoardReset(BaseException):
@@ -185,8 +211,9 @@ class I2C:
         self.timeout = timeout
 
     def _device(self, addr):
+        # a device that is there raises the NACK itself when it does not answer
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         return dev
 
@@ -202,7 +229,7 @@ class I2C:
     # keeps these calls off MicroPython's slow keyword path.
     def readfrom_mem_into(self, addr, memaddr, buf, addrsize=8):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.read_mem(memaddr, buf)
 
@@ -213,13 +240,13 @@ class I2C:
 
     def writeto_mem(self, addr, memaddr, buf, addrsize=8):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.write_mem(memaddr, buf)
 
     def readfrom_into(self, addr, buf, stop=True):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.read(buf)
 
@@ -230,7 +257,7 @@ class I2C:
 
     def writeto(self, addr, buf, stop=True):
         dev = self._bus.get(addr)
-        if dev is None or not dev.answers():
+        if dev is None:
             raise OSError(_EIO)
         dev.write(buf)
         return len(buf)
@@ -291,14 +318,12 @@ class PWM:
         return None
 
     def duty_ns(self, value=None):
-        t = twin
         if value is None:
-            return t.pulse_ns(self._pin)
+            return twin.pulse_ns(self._pin)
         if value < 0:
             raise ValueError("duty_ns must be >= 0")
-        t._duty[self._pin] = value
-        t._duty_is_ns[self._pin] = 1
-        return None
+        twin._duty[self._pin] = value
+        twin._duty_is_ns[self._pin] = 1
 
     def deinit(self):
         twin._pwm_on[self._pin] = 0
@@ -309,28 +334,39 @@ class PWM:
 
 # ------------------------------------------------------------------ UART
 class _UartLine:
-    """Both ends of one UART: the board's ring buffers and the wire to the twin.
+    """Both ends of one UART: the board's buffers and the wire to the twin.
 
     ``feed``, ``take``, ``pending_in`` and the counters are the twin's side;
     the board's ``UART`` moves bytes at the line rate whenever it is used
-    (``_pump``). Byte loops are written out inline: a method call per byte
-    would make a busy link the slowest part of the twin.
+    (``_pump``). Bytes stay where they were put and the line rate moves
+    counters, so pacing costs the same for one byte as for a thousand:
+
+    - ``wire_in`` holds what the far end fed and the board has not read:
+      first the ``rx_n`` bytes that arrived in the board's receive buffer
+      (``rx_size`` bytes), then those still on the wire. Bytes that arrive
+      with the buffer full are cut out of it; bytes read leave its front.
+    - ``out``, a stream of ``_WIRE_BUF + tx_size`` bytes, holds what the
+      board wrote and the far end has not taken: first the ``out_n`` bytes
+      already on the wire (at most ``_WIRE_BUF``), then the ``tx_n`` still
+      in the board's transmit buffer (``tx_size``). A write is one stream
+      write of the part of the board's buffer that fits.
+
+    The cuts are slice assignments of ``b""``, in place; nothing on the
+    board's side allocates.
     """
 
     def __init__(self, uart_id):
         self.id = uart_id
-        self.rx = bytearray(_UART_DEFAULT_BUF)   # the board's receive ring
-        self.rx_head = 0
+        self.rx_size = _UART_DEFAULT_BUF
         self.rx_n = 0
-        self.tx = bytearray(_UART_DEFAULT_BUF)   # the board's transmit ring
-        self.tx_head = 0
+        self.wire_in = bytearray()
+        self.tx_size = _UART_DEFAULT_BUF
         self.tx_n = 0
-        self.wire_in = bytearray()               # fed by the far end, not yet arrived
-        self.in_pos = 0
-        self.wire_out = bytearray(_WIRE_BUF)     # sent by the board, not yet taken
+        self.out = io.BytesIO(bytearray(_WIRE_BUF + _UART_DEFAULT_BUF))
         self.out_n = 0
+        self._scratch = bytearray(_UART_DEFAULT_BUF)  # for a wire overflow
         self.byte_ns = 173611                    # 57600 baud, 8N1: 10 bits a byte
-        self.rx_dropped = 0                      # arrived with the receive ring full
+        self.rx_dropped = 0                      # arrived with the receive buffer full
         self.out_lost = 0                        # the twin did not take() in time
         self.open = False
         self._last = time.ticks_us()
@@ -339,16 +375,21 @@ class _UartLine:
 
     def configure(self, baudrate, frame_bits, rxbuf, txbuf):
         self.byte_ns = (frame_bits * 1000000000) // baudrate
-        if len(self.rx) != rxbuf:
-            self.rx = bytearray(rxbuf)
-        if len(self.tx) != txbuf:
-            self.tx = bytearray(txbuf)
-        self.rx_head = self.rx_n = self.tx_head = self.tx_n = 0
+        self.rx_size = rxbuf
+        self.wire_in[0:self.rx_n] = b""  # what had arrived is gone with the old buffer
+        if self.tx_size != txbuf:
+            out = io.BytesIO(bytearray(_WIRE_BUF + txbuf))
+            self.out.seek(0)
+            out.write(self.out.read(self.out_n))
+            self.out = out
+            self.tx_size = txbuf
+            self._scratch = bytearray(txbuf)
+        self.rx_n = self.tx_n = 0
         self.open = True
         self._last = time.ticks_us()
 
-    def _pump(self):
-        now = time.ticks_us()
+    def _pump(self, now):
+        """Move the bytes the line carried since the last call (``now``: ticks_us)."""
         dt = time.ticks_diff(now, self._last)
         self._last = now
         if dt <= 0:
@@ -356,33 +397,20 @@ class _UartLine:
         if dt > _MAX_GAP_US:
             dt = _MAX_GAP_US
         bns = self.byte_ns
-        waiting = len(self.wire_in) - self.in_pos
+        waiting = len(self.wire_in) - self.rx_n
         if waiting:
             credit = self._credit_in + dt * 1000
             k = credit // bns
             if k > waiting:
                 k = waiting
             self._credit_in = credit - k * bns
-            src = self.wire_in
-            pos = self.in_pos
-            rx = self.rx
-            size = len(rx)
-            head = self.rx_head
-            n = self.rx_n
-            dropped = 0
-            for _ in range(k):
-                if n < size:
-                    j = head + n
-                    if j >= size:
-                        j -= size
-                    rx[j] = src[pos]
-                    n += 1
-                else:
-                    dropped += 1
-                pos += 1
-            self.rx_n = n
-            self.in_pos = pos
-            self.rx_dropped += dropped
+            room = self.rx_size - self.rx_n
+            if k > room:
+                # the receive buffer is full: the rest of these are lost
+                self.wire_in[self.rx_size:self.rx_size + k - room] = b""
+                self.rx_dropped += k - room
+                k = room
+            self.rx_n += k
         else:
             self._credit_in = 0
         if self.tx_n:
@@ -391,52 +419,52 @@ class _UartLine:
             if k > self.tx_n:
                 k = self.tx_n
             self._credit_out = credit - k * bns
-            tx = self.tx
-            size = len(tx)
-            head = self.tx_head
-            out = self.wire_out
-            cap = len(out)
             m = self.out_n
-            for _ in range(k):
-                if m < cap:
-                    out[m] = tx[head]
-                    m += 1
-                else:
-                    self.out_lost += 1  # the twin did not take() for seconds
-                head += 1
-                if head >= size:
-                    head = 0
-            self.tx_head = head
+            if m + k > _WIRE_BUF:
+                # the twin did not take() for seconds: what does not fit is
+                # lost, and the bytes still to send close the gap
+                self.out_lost += m + k - _WIRE_BUF
+                out = self.out
+                out.seek(m + k)
+                out.readinto(self._scratch)
+                out.seek(_WIRE_BUF)
+                _write_part(out, self._scratch, 0, self.tx_n - k)
+            self.out_n = m + k if m + k < _WIRE_BUF else _WIRE_BUF
             self.tx_n -= k
-            self.out_n = m
         else:
             self._credit_out = 0
 
     # twin side
     def feed(self, data):
         """Send ``data`` to the board; it arrives at the line rate."""
-        self._pump()
-        if self.in_pos:
-            self.wire_in = self.wire_in[self.in_pos:]
-            self.in_pos = 0
+        self._pump(time.ticks_us())
         self.wire_in.extend(data)
         return len(data)
 
     def take(self):
         """Bytes the board has sent so far (at the line rate)."""
-        self._pump()
-        out = bytes(self.wire_out[:self.out_n])
+        self._pump(time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us())
+        n = self.out_n
+        if not n:
+            return b""
+        out = self.out
+        out.seek(0)
+        sent = out.read(n)
+        if self.tx_n:
+            # what is still in the board's buffer moves to the front
+            rest = out.read(self.tx_n)
+            out.seek(0)
+            out.write(rest)
         self.out_n = 0
-        return out
+        return sent
 
     def pending_in(self):
         """Bytes fed but not yet arrived at the board."""
-        return len(self.wire_in) - self.in_pos
+        return len(self.wire_in) - self.rx_n
 
     def reset(self):
-        self.rx_head = self.rx_n = self.tx_head = self.tx_n = 0
+        self.rx_n = self.tx_n = 0
         self.wire_in = bytearray()
-        self.in_pos = 0
         self.open = False
         self._credit_in = 0
         self._credit_out = 0
@@ -445,30 +473,23 @@ class _UartLine:
     def get_into(self, buf, start, count):
         """Move up to ``count`` received bytes into ``buf[start:]``; how many."""
         n = self.rx_n if self.rx_n < count else count
-        rx = self.rx
-        size = len(rx)
-        head = self.rx_head
-        for i in range(start, start + n):
-            buf[i] = rx[head]
-            head += 1
-            if head >= size:
-                head = 0
-        self.rx_head = head
+        src = self.wire_in
+        for i in range(n):
+            buf[start + i] = src[i]
+        src[0:n] = b""
         self.rx_n -= n
         return n
 
     def put_from(self, buf, start, end):
         """Queue ``buf[start:end]`` for sending, as much as fits; how many."""
-        tx = self.tx
-        size = len(tx)
-        free = size - self.tx_n
+        free = self.tx_size - self.tx_n
         n = end - start if end - start < free else free
-        j = self.tx_head + self.tx_n
-        for i in range(start, start + n):
-            if j >= size:
-                j -= size
-            tx[j] = buf[i]
-            j += 1
+        out = self.out
+        out.seek(self.out_n + self.tx_n)
+        if _STREAM_PARTS:  # _write_part() written out: the firmware's write path
+            out.write(buf, start, n)
+        else:
+            out.write(memoryview(buf)[start:start + n])
         self.tx_n += n
         return n
 
@@ -544,7 +565,11 @@ class UART:
 
     def any(self):
         line = self._line
-        line._pump()
+        # The firmware polls this every slot: the clock read without a call,
+        # and no pump when it has not moved since the last one.
+        now = time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us()
+        if now != line._last:
+            line._pump(now)
         return line.rx_n
 
     def _wait(self, us, want_rx):
@@ -556,14 +581,14 @@ class UART:
         while waited < us:
             time.sleep_us(step)
             waited += step
-            line._pump()
-            if (line.rx_n if want_rx else len(line.tx) - line.tx_n):
+            line._pump(time.ticks_us())
+            if (line.rx_n if want_rx else line.tx_size - line.tx_n):
                 return True
         return False
 
     def readinto(self, buf, nbytes=-1):
         line = self._line
-        line._pump()
+        line._pump(time.ticks_us())
         n = len(buf) if nbytes < 0 or nbytes > len(buf) else nbytes
         i = line.get_into(buf, 0, n)
         while i < n:
@@ -575,7 +600,7 @@ class UART:
 
     def read(self, nbytes=-1):
         line = self._line
-        line._pump()
+        line._pump(time.ticks_us())
         if nbytes < 0:
             nbytes = line.rx_n if line.rx_n else 1
         buf = bytearray(nbytes)
@@ -595,7 +620,7 @@ class UART:
 
     def write(self, buf, off=0, sz=-1):
         line = self._line
-        line._pump()
+        line._pump(time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us())
         end = len(buf) if sz < 0 or off + sz > len(buf) else off + sz
         i = off + line.put_from(buf, off, end)
         while i < end:
@@ -607,7 +632,7 @@ class UART:
 
     def txdone(self):
         line = self._line
-        line._pump()
+        line._pump(time.ticks_us())
         return line.tx_n == 0
 
     def flush(self):
@@ -620,8 +645,8 @@ class UART:
 
     def __repr__(self):
         return "UART(%d, baudrate=%d, bits=%d, parity=%s, stop=%d, txbuf=%d, rxbuf=%d, timeout=%d, timeout_char=%d)" % (
-            self._id, self.baudrate, self.bits, self.parity, self.stop, len(self._line.tx),
-            len(self._line.rx), self.timeout, self.timeout_char)
+            self._id, self.baudrate, self.bits, self.parity, self.stop, self._line.tx_size,
+            self._line.rx_size, self.timeout, self.timeout_char)
 
 
 # ------------------------------------------------------------------- ADC
@@ -653,7 +678,9 @@ class WDT:
         twin._wdt_start(timeout)
 
     def feed(self):
-        twin._wdt_feed()
+        t = twin
+        t.wdt_feeds += 1
+        t._wdt_last = time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us()
 
 
 # ---------------------------------------------------------------- mem32
@@ -847,7 +874,7 @@ class _Twin:
 
     def pin_level(self, pin):
         """The level on a pin as the board and the outside both see it."""
-        n = _pin_id(pin)
+        n = pin if isinstance(pin, int) and 0 <= pin < _NUM_PINS else _pin_id(pin)
         mode = self._mode[n]
         if mode == 1:  # push-pull output drives the pad
             return self._latch[n]
@@ -878,7 +905,8 @@ class _Twin:
 
     def pulse_ns(self, pin):
         """High time of the PWM output on ``pin`` in ns (0 when off)."""
-        n = _pin_id(pin)
+        # the twin asks by number every frame: no _pin_id() call for that
+        n = pin if isinstance(pin, int) and 0 <= pin < _NUM_PINS else _pin_id(pin)
         if not self._pwm_on[n]:
             return 0
         period = 1000000000 // self._slice_freq[(n >> 1) & 7]
@@ -906,10 +934,6 @@ class _Twin:
             self._wdt_saved = self.wdt_timeout_ms
             self.wdt_timeout_ms = 0
 
-    def _wdt_feed(self):
-        self.wdt_feeds += 1
-        self._wdt_last = time.ticks_us()
-
     def wdt_expired(self):
         """True when the watchdog runs and was not fed within its time-out."""
         if not self.wdt_timeout_ms:
@@ -918,7 +942,11 @@ class _Twin:
 
     def check_watchdog(self):
         """Reset the board (raise ``BoardReset``) if the watchdog expired."""
-        if self.wdt_expired():
+        # wdt_expired() written out: the twin asks on every advance of time
+        if not self.wdt_timeout_ms:
+            return
+        now = time.now_us if _VCLOCK and not time.tick_cost_us else time.ticks_us()
+        if time.ticks_diff(now, self._wdt_last) > self.wdt_timeout_ms * 1000:
             self.power_cycle(WDT_RESET)
             raise BoardReset(WDT_RESET, "watchdog expired")
 

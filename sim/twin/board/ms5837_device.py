@@ -39,7 +39,7 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-from roboray.sim.twin.board.i2c_device import FAULT_GARBAGE, FAULT_STICK, Device
+from roboray.sim.twin.board.i2c_device import FAULT_GARBAGE, FAULT_NACK, FAULT_STICK, Device
 
 ADDRESS = const(0x76)
 VERSION_30BA = const(0x1A)
@@ -57,6 +57,7 @@ _RELOAD_US = const(2800)
 #: Maximum conversion time by OSR index (256, 512, ..., 8192), us.
 CONVERSION_US = (600, 1170, 2280, 4540, 9040, 18080)
 
+_EIO = const(5)
 _IDLE = const(0)
 _OUT_NONE = const(0)
 _OUT_PROM = const(1)
@@ -219,10 +220,16 @@ class MS5837Device(Device):
             self._busy = False
         return Device.answers(self)
 
-    def _finish(self):
-        # A finished conversion leaves its result in the ADC register.
+    def _command(self, cmd):
+        if self._busy or self.fault == FAULT_NACK:
+            if not self.answers():
+                raise OSError(_EIO)  # rp2's error for a NACK
+        self.transfers += 1
+        clock = self.clock
         if self._conv != _IDLE:
-            if self.clock.ticks_diff(self.clock.ticks_us(), self._conv_start) >= self._conv_us:
+            # A finished conversion leaves its result in the ADC register.
+            now = clock.now_us if not clock.tick_cost_us else clock.ticks_us()
+            if clock.ticks_diff(now, self._conv_start) >= self._conv_us:
                 stuck = self.fault == FAULT_STICK
                 if self._conv == _CMD_D1:
                     v = self._stuck_d1 if stuck else self.d1
@@ -233,17 +240,7 @@ class MS5837Device(Device):
                 self._result = v
                 self._conv = _IDLE
                 self._spoiled = False
-
-    def _command(self, cmd):
-        self.transfers += 1
-        self._finish()
-        if cmd == _CMD_RESET:
-            self._conv = _IDLE
-            self._result = 0
-            self._out = _OUT_NONE
-            self._busy = True
-            self._busy_until = self.clock.ticks_add(self.clock.ticks_us(), _RELOAD_US)
-        elif cmd == _CMD_ADC_READ:
+        if cmd == _CMD_ADC_READ:
             self._out = _OUT_ADC
             if self._conv != _IDLE:
                 self._spoiled = True
@@ -257,9 +254,15 @@ class MS5837Device(Device):
             if self._conv == _IDLE:
                 self._conv = cmd & 0xF0
                 self._conv_us = CONVERSION_US[(cmd & 0x0F) >> 1]
-                self._conv_start = self.clock.ticks_us()
+                self._conv_start = clock.now_us if not clock.tick_cost_us else clock.ticks_us()
                 self._result = 0
                 self.conversions += 1
+        elif cmd == _CMD_RESET:
+            self._conv = _IDLE
+            self._result = 0
+            self._out = _OUT_NONE
+            self._busy = True
+            self._busy_until = clock.ticks_add(clock.ticks_us(), _RELOAD_US)
         elif cmd & 0xF1 == _CMD_PROM:
             self._out = _OUT_PROM
             self._out_value = self.prom[(cmd >> 1) & 7]
@@ -267,15 +270,32 @@ class MS5837Device(Device):
     def write(self, buf):
         if len(buf):
             self._command(buf[0])
+        elif self._busy or self.fault == FAULT_NACK:
+            if not self.answers():
+                raise OSError(_EIO)
 
     def write_mem(self, memaddr, buf):
         self._command(memaddr)
 
     def read_mem(self, memaddr, buf):
         self._command(memaddr)
-        self.read(buf)
+        if self._out == _OUT_ADC and len(buf) == 3 and self.fault != FAULT_GARBAGE:
+            # the driver's ADC read, written out: MSB first, then 0 on a repeat
+            v = self._out_value
+            buf[0] = (v >> 16) & 0xFF
+            buf[1] = (v >> 8) & 0xFF
+            buf[2] = v & 0xFF
+            self._out_value = 0
+            return
+        self._read_out(buf)
 
     def read(self, buf):
+        if self._busy or self.fault == FAULT_NACK:
+            if not self.answers():
+                raise OSError(_EIO)
+        self._read_out(buf)
+
+    def _read_out(self, buf):
         if self.fault == FAULT_GARBAGE:
             self._fill_noise(buf)
             return

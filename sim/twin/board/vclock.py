@@ -25,7 +25,16 @@ Twin side:
   sleeping still makes progress (0, the default, is free code).
 - ``elapsed_us()``: simulated time since ``reset``, not wrapped;
 - ``wall_us()``: the host's real clock in microseconds (wrapping as its
-  ticks do), for the twin's measurements of its own speed.
+  ticks do), for the twin's measurements of its own speed;
+- ``now_us`` and ``tick_cost_us``: the state behind ``ticks_us()``, for the
+  emulated peripherals, which read the clock on every transfer: ``now_us if
+  not tick_cost_us else ticks_us()`` is ``ticks_us()`` without the cost of a
+  Python call (read them as ``vclock.now_us``: they are rebound as time moves).
+
+On MicroPython, ``ticks_diff`` and ``ticks_add`` are the interpreter's own
+(native, and the same arithmetic when its ticks also wrap at 2**30, which
+the import checks); on CPython they are written out here, with rp2's check
+that an interval fits in half the period (``OverflowError``).
 
 Everything here is small-integer arithmetic: nothing allocates on a 31-bit
 small-int build except ``time`` and ``time_ns`` (whose values exceed 2**30,
@@ -44,28 +53,28 @@ _TICKS_PERIOD = const(0x40000000)
 _TICKS_MAX = const(0x3FFFFFFF)
 _TICKS_HALF = const(0x20000000)
 _US_PER_S = const(1000000)
-#: Longest single advance: sleeps longer than this are cut into steps so no
-#: product leaves the small integers.
+#: Longest single step: sleeps longer than this are cut into steps so no
+#: product leaves the small integers (the hook sees each step).
 _MAX_STEP_US = const(1000000)
 
 #: ``time.time()`` at ``reset()``: 2021-01-01 00:00:00 UTC, where an rp2
 #: board's clock starts when nothing set it.
 EPOCH_S = 1609459200
 
-_us = 0          # ticks_us, wrapped at 2**30
+now_us = 0       # ticks_us, wrapped at 2**30
 _ms = 0          # ticks_ms, wrapped at 2**30
 _ms_frac = 0     # microseconds into the current millisecond
 _epoch = EPOCH_S  # time.time() at reset (above 2**30: kept out of the step)
 _s_frac = 0      # microseconds into the current second
 _elapsed_s = 0   # whole seconds since reset
 _hook = None
-_tick_cost = 0
+tick_cost_us = 0
 
 
 def reset(start_us=0, epoch_s=EPOCH_S):
     """Back to a fresh board: ticks at ``start_us``, wall clock at ``epoch_s``."""
-    global _us, _ms, _ms_frac, _epoch, _s_frac, _elapsed_s
-    _us = start_us & _TICKS_MAX
+    global now_us, _ms, _ms_frac, _epoch, _s_frac, _elapsed_s
+    now_us = start_us & _TICKS_MAX
     _ms = (start_us // 1000) & _TICKS_MAX
     _ms_frac = start_us % 1000
     _epoch = epoch_s
@@ -81,34 +90,17 @@ def set_hook(fn):
 
 def set_tick_cost_us(us):
     """Time every clock reading costs (0: readings are free)."""
-    global _tick_cost
+    global tick_cost_us
     if us < 0:
         raise ValueError("tick cost must be >= 0 us, got %d" % us)
-    _tick_cost = us
-
-
-def _step(dt):
-    global _us, _ms, _ms_frac, _s_frac, _elapsed_s
-    _us = (_us + dt) & _TICKS_MAX
-    f = _ms_frac + dt
-    _ms = (_ms + f // 1000) & _TICKS_MAX
-    _ms_frac = f % 1000
-    f = _s_frac + dt
-    _elapsed_s += f // _US_PER_S
-    _s_frac = f % _US_PER_S
-    if _hook is not None:
-        _hook(dt)
+    tick_cost_us = us
 
 
 def advance(dt_us):
     """Move simulated time forward by ``dt_us`` (>= 0) and run the hook."""
     if dt_us < 0:
         raise ValueError("time cannot go back: advance(%d)" % dt_us)
-    while dt_us > _MAX_STEP_US:
-        _step(_MAX_STEP_US)
-        dt_us -= _MAX_STEP_US
-    if dt_us > 0:
-        _step(dt_us)
+    sleep_us(dt_us)
 
 
 def elapsed_us():
@@ -116,51 +108,78 @@ def elapsed_us():
     return _elapsed_s * _US_PER_S + _s_frac
 
 
-def wall_us():
-    """The host's real clock, us (MicroPython's ticks_us, or CPython's
-    perf_counter wrapped the same way): the twin's stopwatch."""
-    f = getattr(_host_time, "ticks_us", None)
-    if f is not None:
-        return f()
+def _perf_counter_us():
     return (_host_time.perf_counter_ns() // 1000) & _TICKS_MAX
+
+
+#: The host's real clock, us (MicroPython's ticks_us, or CPython's
+#: perf_counter wrapped the same way): the twin's stopwatch.
+wall_us = getattr(_host_time, "ticks_us", _perf_counter_us)
 
 
 # ----------------------------------------------------------- board's API
 def ticks_us():
-    if _tick_cost:
-        advance(_tick_cost)
-    return _us
+    if tick_cost_us:
+        advance(tick_cost_us)
+    return now_us
 
 
 def ticks_ms():
-    if _tick_cost:
-        advance(_tick_cost)
+    if tick_cost_us:
+        advance(tick_cost_us)
     return _ms
 
 
 def ticks_cpu():
-    return ticks_us()
+    if tick_cost_us:
+        advance(tick_cost_us)
+    return now_us
 
 
-def ticks_diff(a, b):
+def _ticks_diff(a, b):
     return ((a - b + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
 
 
-def ticks_add(t, delta):
+def _ticks_add(t, delta):
+    if not -_TICKS_HALF < delta < _TICKS_HALF:
+        raise OverflowError("ticks interval overflow")
     return (t + delta) & _TICKS_MAX
 
 
+# The firmware calls these dozens of times a 20 ms frame; the interpreter's
+# own are native calls, several times cheaper than Python functions.
+ticks_diff = _ticks_diff
+ticks_add = _ticks_add
+if hasattr(_host_time, "ticks_add"):
+    if _host_time.ticks_add(_TICKS_MAX, 1) == 0 and _host_time.ticks_diff(0, _TICKS_MAX) == 1:
+        ticks_diff = _host_time.ticks_diff
+        ticks_add = _host_time.ticks_add
+
+
 def sleep_us(us):
-    if us > 0:
-        advance(us)
+    # advance() and the firmware's sleeps: the step written out here, one
+    # Python call a sleep (the scheduler sleeps once a slot).
+    global now_us, _ms, _ms_frac, _s_frac, _elapsed_s
+    while us > 0:
+        dt = us if us < _MAX_STEP_US else _MAX_STEP_US
+        us -= dt
+        now_us = (now_us + dt) & _TICKS_MAX
+        f = _ms_frac + dt
+        _ms = (_ms + f // 1000) & _TICKS_MAX
+        _ms_frac = f % 1000
+        f = _s_frac + dt
+        _elapsed_s += f // _US_PER_S
+        _s_frac = f % _US_PER_S
+        if _hook is not None:
+            _hook(dt)
 
 
 def sleep_ms(ms):
     while ms > 1000:
-        advance(_MAX_STEP_US)
+        sleep_us(_MAX_STEP_US)
         ms -= 1000
     if ms > 0:
-        advance(ms * 1000)
+        sleep_us(ms * 1000)
 
 
 def sleep(seconds):
