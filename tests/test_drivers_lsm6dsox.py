@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE
+from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, FROZEN_SAMPLES
 from roboray.sim import twin
 
 pytestmark = pytest.mark.micropython
@@ -32,6 +32,7 @@ def mp(board):
         "from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice\n"
         "from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice\n"
         "from roboray.firmware.drivers.lsm6dsox import LSM6DSOX\n"
+        "from roboray.firmware.drivers.health import FROZEN_SAMPLES\n"
         "i2c = machine.I2C(0, sda=machine.Pin(4), scl=machine.Pin(5))\n"
         "dev = machine.twin.attach(0, LSM6DSOXDevice())\n"
         "def step(n=1):\n"
@@ -48,7 +49,7 @@ def test_configures_the_chip_and_scales_to_si(mp):
     mp.exec("drv = LSM6DSOX(i2c)\n"
             "dev.set_accel(1.0, -2.0, 9.80665)\ndev.set_gyro(0.1, -0.2, 0.3)\ndev.set_temperature(31.5)")
     assert mp.eval("[dev.regs[0x10], dev.regs[0x11], dev.regs[0x12]]") == [0x58, 0x54, 0x44]
-    assert mp.eval("step(100)") == 100
+    assert mp.eval("step(10)") == 10
     accel = mp.eval("list(drv.accel)")
     gyro = mp.eval("list(drv.gyro)")
     for got, want in zip(accel, (1.0, -2.0, G)):
@@ -115,8 +116,23 @@ def test_a_part_that_reset_itself_is_reconfigured(mp):
     assert mp.eval("drv.health.healthy()") is True
 
 
-def test_stuck_output_is_not_judged_by_its_value(mp):
-    mp.exec("drv = LSM6DSOX(i2c)\ndev.set_accel(0.0, 0.0, 9.80665)\nstep(3)\n"
-            "dev.set_fault(i2c_device.FAULT_STICK)\ndev.set_accel(3.0, 0.0, 9.0)\nstep(500)")
+def test_a_part_at_rest_is_live_and_a_frozen_one_is_caught_by_its_counts(mp):
+    # At rest a live part's noise moves its counts every sample: five
+    # seconds of the same input raise nothing. Frozen (still flagging new
+    # samples), every count repeats: caught after FROZEN_SAMPLES reads.
+    mp.exec("drv = LSM6DSOX(i2c)\ndev.set_noise(3)\ndev.set_accel(0.0, 0.0, 9.80665)")
+    assert mp.eval("step(500)") == 500
     assert mp.eval("drv.health.errors") == 0
-    assert mp.eval("drv.accel[0]") == 0.0
+    mp.exec("dev.set_fault(i2c_device.FAULT_STICK)\ndev.set_accel(3.0, 0.0, 9.0)")
+    assert mp.eval("step(FROZEN_SAMPLES - 1)") == FROZEN_SAMPLES - 1   # repeats 1 .. 19: still live
+    assert mp.eval("drv.health.healthy()") is True
+    # frozen, and a reconfiguration (every 10 failures) that resets the part
+    # to zeros once does not make it live again
+    assert mp.eval("step(60)") == 0
+    assert mp.eval("drv.reconfigurations") >= 5
+    assert mp.eval("drv.health.last_error") == ERR_FROZEN
+    assert mp.eval("drv.health.healthy()") is False
+    assert abs(mp.eval("drv.accel[0]")) < 0.01     # the stuck part never showed the new input
+    # a part that comes back moves its counts: live again after as many samples
+    mp.exec("dev.set_fault(i2c_device.FAULT_NONE)")
+    assert mp.eval("step(FROZEN_SAMPLES + 5)") == 6 and mp.eval("drv.health.healthy()") is True  # from the 20th

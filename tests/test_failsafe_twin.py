@@ -82,6 +82,18 @@ def test_an_imu_that_stops_answering_is_reported_and_the_estimator_failsafe_acts
     assert reported(r, F.IMU) and reported(r, F.EKF)
 
 
+@pytest.mark.parametrize("fault, name, bit", [("imu-stick", "IMU", "IMU"), ("mag-stick", "compass", "COMPASS")])
+def test_a_sensor_whose_outputs_freeze_mid_descent_is_caught(fault, name, bit):
+    # The part goes on answering and flagging new samples, its counts stop
+    # moving while the vehicle falls steadily (nothing else looks wrong): a
+    # live part's noise never repeats every count twenty samples in a row.
+    r = fly("%s@10" % fault)
+    assert names(r)[0] == name
+    assert 10.0 <= first(r, name) <= 10.6
+    assert reported(r, getattr(F, bit))
+    assert r["landed"] is False or first(r, name) < r["landed_at_s"]
+
+
 def test_warnings_change_nothing_but_are_reported_and_an_action_set_off_raises_nothing():
     # 600 us a clock reading: the loop overruns, short of starving the watchdog
     r = fly("mag-garbage@12", "battery-sag@12", "overload:600@15", "leak@16",

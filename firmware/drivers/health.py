@@ -3,8 +3,14 @@
 Every driver owns a ``Health`` and reports each sample attempt to it:
 ``good()`` for a sample it trusts, ``bad(code)`` with the reason otherwise.
 A sensor is failed by what it does (bus errors, a CRC, impossible values,
-no fresh data), never by a value that stays the same: a vehicle resting on
-the bottom reads the same depth for minutes, and that is not a fault.
+no fresh data, outputs frozen), never by a quantity that stays the same: a
+vehicle resting on the bottom reads the same depth for minutes, and that
+is not a fault. Frozen outputs are something else: a MEMS part whose raw
+counts repeat bit for bit on every axis while it flags new samples. Its
+own noise (LSM6DSOX accelerometer ~9 counts RMS at 208 Hz, gyroscope ~3,
+LIS3MDL ~20) moves a live part's counts every sample, at rest or not, so
+twenty repeats in a row mean a front end that died (the drivers'
+``FROZEN_SAMPLES``).
 
 ``healthy()`` is True while the last good sample is younger than the
 driver's time-out and fewer than ``max_consecutive`` attempts in a row went
@@ -25,9 +31,15 @@ ERR_CRC = const(2)        # calibration or data failed its check
 ERR_RANGE = const(3)      # a value the part cannot produce (reserved bits, out of range)
 ERR_STALE = const(4)      # no new sample where one was due
 ERR_NOT_READY = const(5)  # a conversion read before it finished (the part returned 0)
+ERR_FROZEN = const(6)     # new samples flagged, every output count the same as the last ones
 
 #: Text for each code, for logs and STATUSTEXT.
-ERRORS = ("ok", "bus error", "CRC mismatch", "impossible value", "no fresh data", "conversion not ready")
+ERRORS = ("ok", "bus error", "CRC mismatch", "impossible value", "no fresh data", "conversion not ready",
+          "outputs frozen")
+
+#: Samples in a row with every output count unchanged that make a part
+#: frozen (the module docstring says why this is no reading at rest).
+FROZEN_SAMPLES = const(20)
 
 
 class Health:

@@ -17,7 +17,8 @@ when asked for, three boxed floats) and ``temp_c``. A read boxes no float
 (two with a new temperature). ``overruns`` counts samples the chip
 overwrote unread.
 ``health`` as in the LSM6DSOX driver: bus errors, no new sample, a
-temperature outside the part's range; after 10 failed reads in a row the
+temperature outside the part's range, frozen outputs (x, y, z); after 10
+failed reads in a row the
 configuration is written again.
 """
 
@@ -30,7 +31,7 @@ except ImportError:  # CPython
         return x
 
 from roboray.firmware.drivers.registers import Registers
-from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
+from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, FROZEN_SAMPLES, Health
 
 ADDRESS = const(0x1C)
 
@@ -81,6 +82,12 @@ class LIS3MDL(Registers):
         self._gauss = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 4)
+        #: New samples in a row whose output counts all repeat the last ones,
+        #: and in a row that moved; ``frozen`` after FROZEN_SAMPLES of the
+        #: first until as many of the second.
+        self.frozen_run = 0
+        self.live_run = 0
+        self.frozen = False
         self.health = Health(clock, timeout_ms)
         self.overruns = 0
         self._check_identity(_WHO_AM_I, _ID)
@@ -125,9 +132,29 @@ class LIS3MDL(Registers):
         if status & _ZYXOR:
             self.overruns += 1
         raw = self.raw
-        raw[1] = ((b[1] | (b[2] << 8)) ^ 0x8000) - 0x8000
-        raw[2] = ((b[3] | (b[4] << 8)) ^ 0x8000) - 0x8000
-        raw[3] = ((b[5] | (b[6] << 8)) ^ 0x8000) - 0x8000
+        m0 = ((b[1] | (b[2] << 8)) ^ 0x8000) - 0x8000
+        m1 = ((b[3] | (b[4] << 8)) ^ 0x8000) - 0x8000
+        m2 = ((b[5] | (b[6] << 8)) ^ 0x8000) - 0x8000
+        # a live part's noise changes some count every sample (health.py)
+        if m0 == raw[1] and m1 == raw[2] and m2 == raw[3]:
+            self.frozen_run += 1
+            self.live_run = 0
+            if self.frozen_run >= FROZEN_SAMPLES:
+                self.frozen = True
+        else:
+            self.frozen_run = 0
+            self.live_run += 1
+            if self.live_run >= FROZEN_SAMPLES:
+                # as many moving samples as froze it: back to life (one
+                # change, such as the reset of a reconfiguration, is not)
+                self.frozen = False
+        raw[1] = m0
+        raw[2] = m1
+        raw[3] = m2
+        if self.frozen:
+            health.bad(ERR_FROZEN)
+            self._recover()
+            return False
         if t != raw[0]:
             raw[0] = t
             self.temp_c[0] = 25.0 + t * TEMP_SCALE

@@ -17,8 +17,10 @@ decoded with shifts, in the sensor's axes:
 A read boxes no float (two with a new temperature); asking for ``accel``
 or ``gyro`` boxes three.
 ``health`` gets a bus error, a status byte with its reserved bits set or a
-temperature outside the part's range (impossible values), or no new sample
-(stale). After 10 failed reads in a row the driver writes its configuration
+temperature outside the part's range (impossible values), no new sample
+(stale), or new samples whose six output counts all repeat the last ones
+``FROZEN_SAMPLES`` times in a row (frozen: ``health.py`` says why a live
+part never does that). After 10 failed reads in a row the driver writes its configuration
 again, which brings back a part that reset itself on a supply dip.
 """
 
@@ -31,7 +33,7 @@ except ImportError:  # CPython
         return x
 
 from roboray.firmware.drivers.registers import Registers
-from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
+from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, FROZEN_SAMPLES, Health
 
 ADDRESS = const(0x6A)
 
@@ -81,6 +83,12 @@ class LSM6DSOX(Registers):
         self._gyro = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 7)
+        #: New samples in a row whose output counts all repeat the last ones,
+        #: and in a row that moved; ``frozen`` after FROZEN_SAMPLES of the
+        #: first until as many of the second.
+        self.frozen_run = 0
+        self.live_run = 0
+        self.frozen = False
         self.health = Health(clock, timeout_ms)
         self._check_identity(_WHO_AM_I, _ID)
         self._configure()
@@ -123,13 +131,36 @@ class LSM6DSOX(Registers):
         # Straight-line decoding: a loop or a helper call per value costs
         # more than the arithmetic on MicroPython.
         raw = self.raw
+        g0 = ((b[4] | (b[5] << 8)) ^ 0x8000) - 0x8000
+        g1 = ((b[6] | (b[7] << 8)) ^ 0x8000) - 0x8000
+        g2 = ((b[8] | (b[9] << 8)) ^ 0x8000) - 0x8000
+        a0 = ((b[10] | (b[11] << 8)) ^ 0x8000) - 0x8000
+        a1 = ((b[12] | (b[13] << 8)) ^ 0x8000) - 0x8000
+        a2 = ((b[14] | (b[15] << 8)) ^ 0x8000) - 0x8000
+        # a live part's noise changes some count every sample (health.py)
+        if a0 == raw[4] and g0 == raw[1] and a1 == raw[5] and a2 == raw[6] and g1 == raw[2] and g2 == raw[3]:
+            self.frozen_run += 1
+            self.live_run = 0
+            if self.frozen_run >= FROZEN_SAMPLES:
+                self.frozen = True
+        else:
+            self.frozen_run = 0
+            self.live_run += 1
+            if self.live_run >= FROZEN_SAMPLES:
+                # as many moving samples as froze it: back to life (one
+                # change, such as the reset of a reconfiguration, is not)
+                self.frozen = False
         raw[0] = t
-        raw[1] = ((b[4] | (b[5] << 8)) ^ 0x8000) - 0x8000
-        raw[2] = ((b[6] | (b[7] << 8)) ^ 0x8000) - 0x8000
-        raw[3] = ((b[8] | (b[9] << 8)) ^ 0x8000) - 0x8000
-        raw[4] = ((b[10] | (b[11] << 8)) ^ 0x8000) - 0x8000
-        raw[5] = ((b[12] | (b[13] << 8)) ^ 0x8000) - 0x8000
-        raw[6] = ((b[14] | (b[15] << 8)) ^ 0x8000) - 0x8000
+        raw[1] = g0
+        raw[2] = g1
+        raw[3] = g2
+        raw[4] = a0
+        raw[5] = a1
+        raw[6] = a2
+        if self.frozen:
+            health.bad(ERR_FROZEN)
+            self._recover()
+            return False
         if status & _TDA:
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
         health.good()

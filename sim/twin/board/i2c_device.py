@@ -20,6 +20,8 @@ Faults the twin injects with ``set_fault``:
 - ``FAULT_NONE``: healthy again.
 """
 
+from struct import pack_into, unpack_from
+
 try:
     from micropython import const
 except ImportError:  # CPython
@@ -48,6 +50,28 @@ class Device:
         self._lfsr = 0xACE1
         #: Transfers seen, for tests and the twin's statistics.
         self.transfers = 0
+        #: The part's own output noise, +- counts on each latched output
+        #: (``set_noise``).
+        self.noise_counts = 0
+
+    def set_noise(self, counts):
+        """Add +-``counts`` (uniform, from the device's LFSR: deterministic)
+        to every output value each sample, as a live part's front end does.
+        For rigs that feed a part constants (a vehicle at rest in a test or
+        a bench): the firmware judges a part whose counts never move as
+        frozen. The twin's world feeds noisy values and leaves this at 0."""
+        if not 0 <= counts <= 127:
+            raise ValueError("noise of %r counts: 0..127" % (counts,))
+        self.noise_counts = counts
+
+    def _dither(self, regs, at, n, fmt):
+        # n 16-bit outputs from regs[at], byte order fmt[0] ("<" or ">")
+        k = self.noise_counts
+        span = 2 * k + 1
+        for i in range(n):
+            j = at + 2 * i
+            v = unpack_from(fmt, regs, j)[0] + self._noise() % span - k
+            pack_into(fmt, regs, j, -32768 if v < -32768 else (32767 if v > 32767 else v))
 
     def set_fault(self, kind):
         if kind not in (FAULT_NONE, FAULT_NACK, FAULT_GARBAGE, FAULT_STICK):

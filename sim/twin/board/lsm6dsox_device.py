@@ -189,6 +189,8 @@ class LSM6DSOXDevice(RegisterDevice):
                 if self.fault != FAULT_STICK:
                     regs[_OUTX_L_A:_OUTX_L_A + 6] = self._accel
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
+                    if self.noise_counts:
+                        self._dither(regs, _OUTX_L_A, 3, "<h")
                 regs[_STATUS] |= _XLDA | _TDA
         period = self._g_period
         if period:
@@ -198,6 +200,8 @@ class LSM6DSOXDevice(RegisterDevice):
                 if self.fault != FAULT_STICK:
                     regs[_OUTX_L_G:_OUTX_L_G + 6] = self._gyro
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
+                    if self.noise_counts:
+                        self._dither(regs, _OUTX_L_G, 3, "<h")
                 regs[_STATUS] |= _GDA | _TDA
 
     def _read_clears(self, first, count):
