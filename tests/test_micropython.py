@@ -160,3 +160,21 @@ def test_linecount_needs_the_settrace_build(micropython):
 
     with pytest.raises(RuntimeError, match="settrace"):
         linecount.start(micropython)
+
+
+def test_board_code_boots_compiled_as_a_board_does(tmp_path, monkeypatch):
+    # .mpy from mpy-cross (bytecode only), cached by content, tracebacks
+    # naming the board path as the source's would
+    monkeypatch.setenv("ROBORAY_CACHE", str(tmp_path))
+    from roboray.tools.micropython.mpycache import compiled
+
+    src = tmp_path / "boom.py"
+    src.write_text("def f():\n    return 1 // 0\n")
+    first = compiled(src, "/lib/boom.py")
+    assert first[:1] == b"M" and compiled(src, "/lib/boom.py") == first
+    assert len(list((tmp_path / "mpy").glob("*.mpy"))) == 1
+    with MicroPython() as mp:
+        mp.write_file("/lib/boom.mpy", first)
+        with pytest.raises(MicroPythonError) as err:
+            mp.exec("import boom\nboom.f()")
+    assert 'File "/lib/boom.py", line 2, in f' in err.value.traceback

@@ -58,29 +58,27 @@ def board_sources() -> list[tuple[Path, str]]:
     return [(p, BOARD_DEST + "/" + p.name) for p in sorted(BOARD_DIR.glob("*.py"))]
 
 
-def install(mp) -> list[str]:
-    """Copy the twin's MicroPython files into interpreter ``mp``."""
-    written = []
-    for host, dest in board_sources():
-        mp.write_file(dest, host.read_bytes())
-        written.append(dest)
-    return written
+def install(mp, compiled: bool = False) -> list[str]:
+    """Copy the twin's MicroPython files into interpreter ``mp`` (``compiled``: as ``.mpy``)."""
+    return mp.install_files(board_sources(), compiled)
 
 
-def emulate(mp) -> None:
+def emulate(mp, compiled: bool = False) -> None:
     """Install the twin into ``mp`` and switch its ``time`` and ``machine``."""
-    install(mp)
+    install(mp, compiled)
     mp.exec(PRELUDE)
 
 
-def interpreter(**kwargs):
-    """A new MicroPython with the board code and the emulated board in place."""
+def interpreter(compiled: bool = True, **kwargs):
+    """A new MicroPython with the board code and the emulated board in place:
+    compiled to ``.mpy`` as a board boots it (``tools/micropython/mpycache.py``),
+    or as source with ``compiled=False``."""
     from roboray.tools.micropython import MicroPython
 
     mp = MicroPython(**kwargs)
     try:
-        mp.install_board_code()
-        emulate(mp)
+        mp.install_board_code(compiled)
+        emulate(mp, compiled)
     except BaseException:
         mp.close()
         raise

@@ -254,12 +254,24 @@ class MicroPython:
             raise FileNotFoundError("no %s in MicroPython's file system" % path)
         return base64.b64decode(reply["b64"])
 
-    def install_board_code(self) -> list[str]:
-        """Copy shared/ and firmware/ to /lib/roboray/... as on a flashed board."""
+    def install_board_code(self, compiled: bool = False) -> list[str]:
+        """Copy shared/ and firmware/ to /lib/roboray/... as on a flashed board:
+        as source, or ``compiled`` to ``.mpy`` as a build does (``mpycache``)."""
+        return self.install_files(board_sources(), compiled)
+
+    def install_files(self, files: Sequence[tuple[Path, str]], compiled: bool = False) -> list[str]:
+        """Write (host ``.py``, board path) pairs; ``compiled``: their ``.mpy``."""
+        from .mpycache import compiled as mpy
+
         written = []
-        for host_path, board_path in board_sources():
-            self.write_file(board_path, host_path.read_bytes())
-            written.append(board_path)
+        for host_path, board_path in files:
+            if compiled:
+                dest = board_path[:-3] + ".mpy"
+                self.write_file(dest, mpy(host_path, board_path))
+            else:
+                dest = board_path
+                self.write_file(dest, host_path.read_bytes())
+            written.append(dest)
         return written
 
     # ----------------------------------------------------------- lifetime
