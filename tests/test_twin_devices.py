@@ -180,6 +180,9 @@ def test_reading_an_emulated_device_allocates_nothing(mp):
             "put(0x6A, 0x10, 0x58)\nbuf = bytearray(16)\nw = bytearray(2)\ncmd = bytearray(b'\\x4a')")
     assert mp.alloc_bytes("time.sleep_ms(5); i2c.readfrom_mem_into(0x6A, 0x1E, buf)") == 0
     assert mp.alloc_bytes("i2c.writeto(0x76, cmd); i2c.readfrom_mem_into(0x76, 0xA2, w)") == 0
+    # with the part's own noise on, too (rigs at rest)
+    mp.exec("machine.twin.devices(0)[0x6A].set_noise(3)")
+    assert mp.alloc_bytes("time.sleep_ms(5); i2c.readfrom_mem_into(0x6A, 0x1E, buf)") == 0
 
 
 # ------------------------------------------- what the fast paths must keep
@@ -316,3 +319,23 @@ def test_reading_the_magnetometer_allocates_nothing(mp):
             "buf = bytearray(9)")
     assert mp.alloc_bytes("time.sleep_ms(7); i2c.readfrom_mem_into(0x1C, 0xA7, buf)") == 0
     assert mp.alloc_bytes("time.sleep_ms(7); i2c.readfrom_mem_into(0x1C, 0x27, buf)") == 0
+    mp.exec("machine.twin.devices(0)[0x1C].set_noise(3)\nput(0x1C, 0x23, 0x02)")   # noise, big-endian
+    assert mp.alloc_bytes("time.sleep_ms(7); i2c.readfrom_mem_into(0x1C, 0xA7, buf)") == 0
+
+
+def test_a_parts_own_noise_moves_its_counts_around_the_input(mp):
+    # set_noise: +-k counts on every output each sample, both byte orders
+    mp.exec("d = machine.twin.attach(0, LIS3MDLDevice())\nput(0x1C, 0x20, 0xE2)\nput(0x1C, 0x22, 0x00)\n"
+            "import struct\nd.set_field(0.5, -0.25, 0.0)\nd.set_noise(3)\nbuf = bytearray(6)\nseen = []\n"
+            "for be in (0, 2):\n"
+            "    put(0x1C, 0x23, be)\n"
+            "    for _ in range(40):\n"
+            "        time.sleep_ms(7)\n"
+            "        i2c.readfrom_mem_into(0x1C, 0xA8, buf)\n"
+            "        seen.append(struct.unpack('>hhh' if be else '<hhh', buf))\n")
+    seen = mp.eval("seen")
+    want = (3421, -1711, 0)    # 0.5 and -0.25 gauss at 6842 LSB/gauss, halves away from zero
+    for axis in range(3):
+        values = [s[axis] for s in seen]
+        assert all(abs(v - want[axis]) <= 3 for v in values)
+        assert len(set(values)) >= 4     # it moves

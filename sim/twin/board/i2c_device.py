@@ -20,8 +20,6 @@ Faults the twin injects with ``set_fault``:
 - ``FAULT_NONE``: healthy again.
 """
 
-from struct import pack_into, unpack_from
-
 try:
     from micropython import const
 except ImportError:  # CPython
@@ -64,14 +62,19 @@ class Device:
             raise ValueError("noise of %r counts: 0..127" % (counts,))
         self.noise_counts = counts
 
-    def _dither(self, regs, at, n, fmt):
-        # n 16-bit outputs from regs[at], byte order fmt[0] ("<" or ">")
+    def _dither(self, regs, at, n, big_endian):
+        # n 16-bit outputs from regs[at]; bytes in and out, so the part's
+        # reads still allocate nothing (a driver's heap figure is its own)
         k = self.noise_counts
         span = 2 * k + 1
-        for i in range(n):
-            j = at + 2 * i
-            v = unpack_from(fmt, regs, j)[0] + self._noise() % span - k
-            pack_into(fmt, regs, j, -32768 if v < -32768 else (32767 if v > 32767 else v))
+        lo = 1 if big_endian else 0
+        hi = 1 - lo
+        for j in range(at, at + 2 * n, 2):
+            v = regs[j + lo] | (regs[j + hi] << 8)
+            v = (v ^ 0x8000) - 0x8000 + self._noise() % span - k
+            v = -32768 if v < -32768 else (32767 if v > 32767 else v)
+            regs[j + lo] = v & 0xFF
+            regs[j + hi] = (v >> 8) & 0xFF
 
     def set_fault(self, kind):
         if kind not in (FAULT_NONE, FAULT_NACK, FAULT_GARBAGE, FAULT_STICK):

@@ -163,7 +163,7 @@ class LIS3MDLDevice(RegisterDevice):
             be = 1 if regs[_CTRL_REG4] & 0x02 else 0
             regs[_OUT_X_L:_OUT_X_L + 6] = self._field[be]
             if self.noise_counts:
-                self._dither(regs, _OUT_X_L, 3, ">h" if be else "<h")
+                self._dither(regs, _OUT_X_L, 3, be)
             if regs[_CTRL_REG1] & 0x80:
                 regs[_TEMP_OUT_L:_TEMP_OUT_L + 2] = self._temp[be]
         # new data; overrun when a sample was overwritten unread

@@ -190,7 +190,7 @@ class LSM6DSOXDevice(RegisterDevice):
                     regs[_OUTX_L_A:_OUTX_L_A + 6] = self._accel
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                     if self.noise_counts:
-                        self._dither(regs, _OUTX_L_A, 3, "<h")
+                        self._dither(regs, _OUTX_L_A, 3, False)
                 regs[_STATUS] |= _XLDA | _TDA
         period = self._g_period
         if period:
@@ -201,7 +201,7 @@ class LSM6DSOXDevice(RegisterDevice):
                     regs[_OUTX_L_G:_OUTX_L_G + 6] = self._gyro
                     regs[_OUT_TEMP_L:_OUT_TEMP_L + 2] = self._temp
                     if self.noise_counts:
-                        self._dither(regs, _OUTX_L_G, 3, "<h")
+                        self._dither(regs, _OUTX_L_G, 3, False)
                 regs[_STATUS] |= _GDA | _TDA
 
     def _read_clears(self, first, count):
