@@ -233,18 +233,17 @@ class Scheduler:
             done += 1
             nxt = (self._deadline + period) & _TICKS_MAX
             late = ((end - nxt + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
-            step = 1
             if late >= 0:
                 self.overruns += 1
                 self.consecutive_overruns += 1
                 missed = late // period
                 if missed:
                     self.skipped += missed
-                    step += missed
+                    self.slot += missed
                     nxt = (nxt + missed * period) & _TICKS_MAX
             else:
                 self.consecutive_overruns = 0
-            self.slot += step
+            self.slot += 1
             self._deadline = nxt
             if self.wdt is not None:
                 if ok and self.consecutive_overruns < self.overrun_limit and (
