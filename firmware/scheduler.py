@@ -3,8 +3,10 @@
 The loop runs in slots of ``period_ms`` (10 ms, 100 Hz) on a fixed grid:
 slot k starts at ``t0 + k * period``. Each task runs every ``n`` slots
 (its period over the loop's) at a phase, so work can be spread (the depth
-sensor on odd slots, control on even ones). A slot runs its due tasks in
-the order they were added, then ``gc.collect()`` (always here, so a
+sensor on odd slots, control on even ones). Which tasks are due in a slot
+is looked up in a table built when tasks are added (one entry a slot over
+the periods' least common multiple, at most 1000 slots). A slot runs its
+due tasks in the order they were added, then ``gc.collect()`` (always here, so a
 collection never lands in the middle of a task), then feeds the watchdog if
 the loop is healthy, then sleeps to the next slot.
 
@@ -42,6 +44,15 @@ except ImportError:  # CPython
 _MAX_TASKS = const(16)
 _TICKS_MAX = const(0x3FFFFFFF)
 _TICKS_HALF = const(0x20000000)
+# The due-task table has one entry a slot over the tasks' common period;
+# 1000 slots (10 s at 100 Hz) bounds it at 4 kB of references.
+_MAX_PLAN_SLOTS = const(1000)
+
+
+def _gcd(a, b):
+    while b:
+        a, b = b, a % b
+    return a
 
 
 class Scheduler:
@@ -87,6 +98,12 @@ class Scheduler:
         self.task_errors = array("l", [0] * _MAX_TASKS)
         self.last_errors = [None] * _MAX_TASKS
         self._n = 0
+        # _plan[slot % _plan_slots]: the tasks due in that slot, in the order
+        # added. Built by add(), so a slot neither tests every task's phase
+        # (a modulo each) nor visits tasks that are not due.
+        self._plan_slots = 1
+        self._plan = [()]
+        self._planned = 0   # tasks in _plan: it is rebuilt when tasks were added
         self.slot = 0
         self.cycles = 0
         self.overruns = 0
@@ -115,13 +132,36 @@ class Scheduler:
                              % (name, period_ms, self.period_us // 1000))
         if not 0 <= phase < every:
             raise ValueError("task %s: phase %r outside 0..%d" % (name, phase, every - 1))
+        # the table repeats over the periods' least common multiple
+        slots = self._plan_slots * every // _gcd(self._plan_slots, every)
+        if slots > _MAX_PLAN_SLOTS:
+            raise ValueError("task %s: task periods would repeat only every %d slots (at most %d)"
+                             % (name, slots, _MAX_PLAN_SLOTS))
         i = self._n
+        self._plan_slots = slots
         self.names.append(name)
         self._fns.append(fn)
         self._every[i] = every
         self._phase[i] = phase
         self._n = i + 1
         return i
+
+    def _build_plan(self):
+        # One tuple per distinct due set (a dict shares them), so the table
+        # costs a reference a slot; built before the first slot after tasks
+        # were added (at setup), so it may allocate.
+        slots = self._plan_slots
+        due = [[] for _ in range(slots)]
+        for i in range(self._n):
+            for k in range(self._phase[i], slots, self._every[i]):
+                due[k].append(i)   # tasks in the order added
+        shared = {}
+        plan = []
+        for d in due:
+            d = tuple(d)
+            plan.append(shared.setdefault(d, d))
+        self._plan = plan
+        self._planned = self._n
 
     def index(self, name):
         """Index of task ``name`` (for its counters), -1 if none."""
@@ -132,6 +172,8 @@ class Scheduler:
 
     def run_slot(self):
         """Run the tasks due in the current slot and collect; True if all went well."""
+        if self._planned != self._n:
+            self._build_plan()
         return self._slot(self._clock.ticks_us())
 
     def _slot(self, start):
@@ -139,30 +181,26 @@ class Scheduler:
         clock = self._clock
         self.now_us = start
         self.now_ms = clock.ticks_ms()
-        slot = self.slot
-        every = self._every
-        phase = self._phase
         fns = self._fns
         runs = self.runs
         task_max = self.task_max_us
         ok = True
         t0 = start
-        for i in range(self._n):
-            if (slot - phase[i]) % every[i] == 0:
-                try:
-                    fns[i]()
-                except Exception as e:  # a failing task must not stop the loop
-                    ok = False
-                    self.task_errors[i] += 1
-                    if self.last_errors[i] is None:
-                        print("task %s failed: %r" % (self.names[i], e))
-                    self.last_errors[i] = e
-                t1 = clock.ticks_us()
-                dt = ((t1 - t0 + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
-                t0 = t1
-                runs[i] += 1
-                if dt > task_max[i]:
-                    task_max[i] = dt
+        for i in self._plan[self.slot % self._plan_slots]:
+            try:
+                fns[i]()
+            except Exception as e:  # a failing task must not stop the loop
+                ok = False
+                self.task_errors[i] += 1
+                if self.last_errors[i] is None:
+                    print("task %s failed: %r" % (self.names[i], e))
+                self.last_errors[i] = e
+            t1 = clock.ticks_us()
+            dt = ((t1 - t0 + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
+            t0 = t1
+            runs[i] += 1
+            if dt > task_max[i]:
+                task_max[i] = dt
         self._collect()
         t1 = clock.ticks_us()
         dt = ((t1 - t0 + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
@@ -176,6 +214,8 @@ class Scheduler:
         """Run slots until ``stop()`` or ``cycles`` slots (-1: for ever)."""
         clock = self._clock
         period = self.period_us
+        if self._planned != self._n:
+            self._build_plan()
         self._running = True
         self._deadline = clock.ticks_us()
         done = 0
@@ -193,18 +233,17 @@ class Scheduler:
             done += 1
             nxt = (self._deadline + period) & _TICKS_MAX
             late = ((end - nxt + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
-            step = 1
             if late >= 0:
                 self.overruns += 1
                 self.consecutive_overruns += 1
                 missed = late // period
                 if missed:
                     self.skipped += missed
-                    step += missed
+                    self.slot += missed
                     nxt = (nxt + missed * period) & _TICKS_MAX
             else:
                 self.consecutive_overruns = 0
-            self.slot += step
+            self.slot += 1
             self._deadline = nxt
             if self.wdt is not None:
                 if ok and self.consecutive_overruns < self.overrun_limit and (

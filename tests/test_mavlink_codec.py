@@ -46,6 +46,17 @@ def test_crc_fast_path_equals_the_board_table_loop():
     assert crc.table_accumulate(0xFFFF, b"123456789", 0, 9) == 0x6F91
 
 
+def test_crc_table_loop_over_any_slice_equals_byte_by_byte():
+    # the loop takes four bytes a pass and the rest singly: every start and length
+    data = bytes(range(7, 250, 13))
+    for start in range(0, 6):
+        for end in range(start, len(data) + 1):
+            want = 0xFFFF
+            for b in data[start:end]:
+                want = crc.accumulate_byte(want, b)
+            assert crc.table_accumulate(0xFFFF, data, start, end) == want, (start, end)
+
+
 def _decode_ours(frame: bytes, key: bytes | None = None) -> tuple[Parser, dict]:
     p = Parser(Signing(key) if key else None)
     end = p.feed(frame)

@@ -147,3 +147,19 @@ def test_report_names_every_task(mp):
     assert text.splitlines()[0].startswith("loop 100 Hz: 4 cycles, 0 overruns")
     assert "imu        every  10 ms: 4 runs" in text and "depth      every  20 ms: 2 runs" in text
     assert mp.eval("s.reset_cause") == 3
+
+
+def test_due_table_follows_tasks_added_between_slots_and_phases(mp):
+    # the due-task table is rebuilt when tasks were added after a slot ran
+    mp.exec("s = Scheduler(vclock, 10)\ns.add('a', nothing, 10)\ns.run(3)\n"
+            "s.add('b', stamp, 30, phase=2)\ns.add('c', nothing, 50, phase=4)\ns.run(30)")
+    assert mp.eval("[s.runs[0], s.runs[1], s.runs[2]]") == [33, 10, 6]
+    # 'b' is due at slots 5, 8, 11, ... (phase 2 of 3); the first run(3)
+    # does not sleep after its last slot, so slot 3 starts at 20 ms
+    assert mp.eval("stamps()[:3]") == [40, 70, 100]
+
+
+def test_periods_whose_common_multiple_is_too_long_are_refused(mp):
+    mp.exec("s = Scheduler(vclock, 10)\ns.add('a', nothing, 70)\ns.add('b', nothing, 130)")
+    with pytest.raises(Exception, match="repeat only every 1729 slots"):
+        mp.exec("s.add('c', nothing, 190)")

@@ -83,7 +83,8 @@ class LIS3MDL(Registers):
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 4)
         #: New samples in a row whose output counts all repeat the last ones,
-        #: and in a row that moved; ``frozen`` after FROZEN_SAMPLES of the
+        #: and in a row that moved (counted while frozen only: it ends
+        #: that); ``frozen`` after FROZEN_SAMPLES of the
         #: first until as many of the second.
         self.frozen_run = 0
         self.live_run = 0
@@ -141,13 +142,16 @@ class LIS3MDL(Registers):
             self.live_run = 0
             if self.frozen_run >= FROZEN_SAMPLES:
                 self.frozen = True
-        else:
+        elif self.frozen:
+            # moving samples are counted only while frozen, where they matter:
+            # as many as froze it bring it back to life (one change, such as
+            # the reset of a reconfiguration, is not)
             self.frozen_run = 0
             self.live_run += 1
             if self.live_run >= FROZEN_SAMPLES:
-                # as many moving samples as froze it: back to life (one
-                # change, such as the reset of a reconfiguration, is not)
                 self.frozen = False
+        else:
+            self.frozen_run = 0
         raw[1] = m0
         raw[2] = m1
         raw[3] = m2
@@ -158,7 +162,11 @@ class LIS3MDL(Registers):
         if t != raw[0]:
             raw[0] = t
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
-        health.good()
+        # health.good(), inline: this read runs every slot, and a call costs
+        # as much as the three lines
+        health.samples += 1
+        health.consecutive = 0
+        health.last_good_ms = self._clock.ticks_ms()
         return True
 
     @property

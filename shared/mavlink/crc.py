@@ -45,7 +45,15 @@ def accumulate(crc, buf, start, end):
 def table_accumulate(crc, buf, start, end):
     """The table loop: the board's path, and CPython's for comparison."""
     t = TABLE
-    for i in range(start, end):
+    # four bytes a pass: the loop's own step costs as much as a byte's
+    # arithmetic on MicroPython; the remaining 0..3 bytes one at a time
+    mid = end - ((end - start) & 3)
+    for i in range(start, mid, 4):
+        crc = (crc >> 8) ^ t[(crc ^ buf[i]) & 0xFF]
+        crc = (crc >> 8) ^ t[(crc ^ buf[i + 1]) & 0xFF]
+        crc = (crc >> 8) ^ t[(crc ^ buf[i + 2]) & 0xFF]
+        crc = (crc >> 8) ^ t[(crc ^ buf[i + 3]) & 0xFF]
+    for i in range(mid, end):
         crc = (crc >> 8) ^ t[(crc ^ buf[i]) & 0xFF]
     return crc
 
