@@ -162,9 +162,10 @@ class Lockstep:
             active = v.failsafes.active
         sent = self.uart.take()
         w0 = vclock.wall_us()
+        pulse = t._pulse  # what t.pulse_ns(pin) returns, without four calls
         text = hostlink.request("%d %d %d %d %d %d %s" % (
-            t.pulse_ns(SERVO_PINS[0]), t.pulse_ns(SERVO_PINS[1]), t.pulse_ns(SERVO_PINS[2]),
-            t.pulse_ns(SERVO_PINS[3]), mode, active, binascii.hexlify(sent).decode() if sent else ""))
+            pulse[SERVO_PINS[0]], pulse[SERVO_PINS[1]], pulse[SERVO_PINS[2]],
+            pulse[SERVO_PINS[3]], mode, active, binascii.hexlify(sent).decode() if sent else ""))
         w1 = vclock.wall_us()
         self.request_us += vclock.ticks_diff(w1, w0)
         if self.frames:

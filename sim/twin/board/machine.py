@@ -292,6 +292,7 @@ class PWM:
             self.duty_ns(duty_ns)
         twin._pwm_invert[self._pin] = 1 if invert else 0
         twin._pwm_on[self._pin] = 1
+        twin._repulse(self._pin)
 
     def freq(self, value=None):
         t = twin
@@ -302,6 +303,9 @@ class PWM:
         if value > _SYS_FREQ // 2:
             raise ValueError("freq too large")
         t._slice_freq[self._slice] = value
+        for n in range(_NUM_PINS):  # every channel on the slice (rare: setup)
+            if (n >> 1) & 7 == self._slice:
+                t._repulse(n)
         return None
 
     def duty_u16(self, value=None):
@@ -315,6 +319,7 @@ class PWM:
             raise ValueError("duty_u16 must be from 0 to 65535")
         t._duty[self._pin] = value
         t._duty_is_ns[self._pin] = 0
+        t._repulse(self._pin)
         return None
 
     def duty_ns(self, value=None):
@@ -322,11 +327,21 @@ class PWM:
             return twin.pulse_ns(self._pin)
         if value < 0:
             raise ValueError("duty_ns must be >= 0")
-        twin._duty[self._pin] = value
-        twin._duty_is_ns[self._pin] = 1
+        t = twin
+        n = self._pin
+        t._duty[n] = value
+        t._duty_is_ns[n] = 1
+        # the servo driver's write every frame: _repulse() written out
+        if t._pwm_on[n]:
+            period = 1000000000 // t._slice_freq[self._slice]
+            high = value if value < period else period
+            t._pulse[n] = period - high if t._pwm_invert[n] else high
+        else:
+            t._pulse[n] = 0
 
     def deinit(self):
         twin._pwm_on[self._pin] = 0
+        twin._pulse[self._pin] = 0
 
     def __repr__(self):
         return "<PWM slice=%d channel=%d>" % (self._slice, self._pin & 1)
@@ -798,6 +813,9 @@ class _Twin:
         self._duty_is_ns = bytearray(_NUM_PINS)
         self._pwm_on = bytearray(_NUM_PINS)
         self._pwm_invert = bytearray(_NUM_PINS)
+        #: pulse_ns() of each pin, kept current by every PWM write (the twin
+        #: reads four a frame: a list lookup, not the arithmetic each time).
+        self._pulse = [0] * _NUM_PINS
         self.unique_id = b"\xe6\x61\x41\x04\x03\x2b\x7a\x2e"
         self.clear()
 
@@ -828,6 +846,7 @@ class _Twin:
             self._duty_is_ns[i] = 0
             self._pwm_on[i] = 0
             self._pwm_invert[i] = 0
+            self._pulse[i] = 0
         for s in range(8):
             self._slice_freq[s] = 1000
         for line in self._uart:
@@ -907,14 +926,19 @@ class _Twin:
         """High time of the PWM output on ``pin`` in ns (0 when off)."""
         # the twin asks by number every frame: no _pin_id() call for that
         n = pin if isinstance(pin, int) and 0 <= pin < _NUM_PINS else _pin_id(pin)
+        return self._pulse[n]
+
+    def _repulse(self, n):
+        # pulse_ns() of pin n from its PWM state, after a change to it
         if not self._pwm_on[n]:
-            return 0
+            self._pulse[n] = 0
+            return
         period = 1000000000 // self._slice_freq[(n >> 1) & 7]
         if self._duty_is_ns[n]:
             high = self._duty[n] if self._duty[n] < period else period
         else:
             high = int(self._duty[n] * period / 65535.0 + 0.5)
-        return period - high if self._pwm_invert[n] else high
+        self._pulse[n] = period - high if self._pwm_invert[n] else high
 
     # UART
     def uart(self, uart_id):

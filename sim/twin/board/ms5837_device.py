@@ -32,6 +32,7 @@ of C1 so the CRC no longer matches.
 """
 
 from array import array
+from math import sqrt
 
 try:
     from micropython import const
@@ -157,16 +158,16 @@ class MS5837Device(Device):
         self.temp_c = temp_c
         c = self._c
         # Temperature: solve TEMP2(dT) = target (0.01 C) for the continuous dT
-        # by Newton's method, first order as the start (datasheet: TEMP =
-        # 2000 + dT C6 / 2^23; TEMP2 = TEMP - Ti, Ti = 3 dT^2 / 2^33 below
-        # 20 C, 2 dT^2 / 2^37 above).
-        target = temp_c * 100.0
+        # (datasheet: TEMP = 2000 + dT C6 / 2^23; TEMP2 = TEMP - Ti, Ti =
+        # 3 dT^2 / 2^33 below 20 C, 2 dT^2 / 2^37 above). On each side of
+        # 20 C that is a quadratic a dT^2 - k dT + (target - 2000) = 0, and
+        # dT < 0 exactly when target < 2000; its root nearest the first-order
+        # one, in the form that does not cancel, with one sqrt (a Newton
+        # solve cost four passes of lines on the interpreter).
+        e = temp_c * 100.0 - 2000.0
         k = c[6] / 8388608.0
-        x = (target - 2000.0) / k
-        for _ in range(4):
-            a = 3.0 / 8589934592.0 if x < 0 else 2.0 / 137438953472.0
-            f = 2000.0 + x * k - a * x * x - target
-            x -= f / (k - 2.0 * a * x)
+        a = 3.0 / 8589934592.0 if e < 0 else 2.0 / 137438953472.0
+        x = 2.0 * e / (k + sqrt(k * k - 4.0 * a * e))
         d2 = int(c[5] * 256 + x + 0.5)
         d2 = 0 if d2 < 0 else (0xFFFFFF if d2 > 0xFFFFFF else d2)
         # Pressure: with that D2, OFF2 and SENS2 are fixed integers; pick D1
