@@ -204,43 +204,9 @@ class Attitude:
         # (|omega| dt / 2)^2 a step (6e-5 at 1.5 rad/s and 100 Hz), and
         # normalize() runs at 10 Hz. Until then R from the unnormalised q is
         # (1 + eps) R - eps I: a direction error of eps sin(tilt), < 0.01 deg.
-        # quat.turn() then quat.to_matrix(), inline: two calls fewer a step,
-        # and the matrix is formed from the new components while they are
-        # still locals (q is a list of floats: the same values it holds)
-        w0 = q[0]
-        x0 = q[1]
-        y0 = q[2]
-        z0 = q[3]
-        w = w0 - hx * x0 - hy * y0 - hz * z0
-        x = x0 + hx * w0 + hz * y0 - hy * z0
-        y = y0 + hy * w0 - hz * x0 + hx * z0
-        z = z0 + hz * w0 + hy * x0 - hx * y0
-        q[0] = w
-        q[1] = x
-        q[2] = y
-        q[3] = z
-        x2 = x + x
-        y2 = y + y
-        z2 = z + z
-        xx = x * x2
-        yy = y * y2
-        zz = z * z2
-        xy = x * y2
-        xz = x * z2
-        yz = y * z2
-        wx = w * x2
-        wy = w * y2
-        wz = w * z2
+        quat.turn(q, hx, hy, hz)
         R = self.R
-        R[0] = 1.0 - (yy + zz)
-        R[1] = xy - wz
-        R[2] = xz + wy
-        R[3] = xy + wz
-        R[4] = 1.0 - (xx + zz)
-        R[5] = yz - wx
-        R[6] = xz - wy
-        R[7] = yz + wx
-        R[8] = 1.0 - (xx + yy)
+        quat.to_matrix(R, q)
         f2 = ax * ax + ay * ay + az * az
         if self._f2_lo < f2 < self._f2_hi:
             vx = R[6]
