@@ -69,7 +69,6 @@ class Health:
         self.last_good_ms = clock.ticks_ms()
 
     def good(self):
-        # the IMU and compass drivers inline these three lines: keep them alike
         self.samples += 1
         self.consecutive = 0
         self.last_good_ms = self._clock.ticks_ms()

@@ -162,11 +162,7 @@ class LIS3MDL(Registers):
         if t != raw[0]:
             raw[0] = t
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
-        # health.good(), inline: this read runs every slot, and a call costs
-        # as much as the three lines
-        health.samples += 1
-        health.consecutive = 0
-        health.last_good_ms = self._clock.ticks_ms()
+        health.good()
         return True
 
     @property

@@ -167,11 +167,7 @@ class LSM6DSOX(Registers):
             return False
         if status & _TDA:
             self.temp_c[0] = 25.0 + t * TEMP_SCALE
-        # health.good(), inline: this read runs every slot, and a call costs
-        # as much as the three lines
-        health.samples += 1
-        health.consecutive = 0
-        health.last_good_ms = self._clock.ticks_ms()
+        health.good()
         return True
 
     @property
