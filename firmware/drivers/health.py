@@ -9,7 +9,7 @@ is not a fault. Frozen outputs are something else: a MEMS part whose raw
 counts repeat bit for bit on every axis while it flags new samples. Its
 own noise (LSM6DSOX accelerometer ~9 counts RMS at 208 Hz, gyroscope ~3,
 LIS3MDL ~20) moves a live part's counts every sample, at rest or not, so
-twenty repeats in a row mean a front end that died (the drivers'
+twenty repeats in a row mean a front end that died (``Health.frozen``,
 ``FROZEN_SAMPLES``).
 
 ``healthy()`` is True while the last good sample is younger than the
@@ -67,6 +67,11 @@ class Health:
         self.last_error = OK
         self.counts = array("l", [0] * len(ERRORS))
         self.last_good_ms = clock.ticks_ms()
+        #: New samples in a row whose output counts all repeat the last ones,
+        #: and (while frozen) in a row that moved; see ``frozen()``.
+        self.frozen_run = 0
+        self.live_run = 0
+        self.is_frozen = False
 
     def good(self):
         self.samples += 1
@@ -78,6 +83,26 @@ class Health:
         self.consecutive += 1
         self.counts[code] += 1
         self.last_error = code
+
+    def frozen(self, same):
+        """Judge a new sample by its counts: ``same`` when every output count
+        repeats the last sample's. True while the part is frozen:
+        FROZEN_SAMPLES repeats in a row freeze it, as many moving samples in
+        a row bring it back (one change, such as the reset a
+        reconfiguration makes, does not)."""
+        if same:
+            self.frozen_run += 1
+            self.live_run = 0
+            if self.frozen_run >= FROZEN_SAMPLES:
+                self.is_frozen = True
+        elif self.is_frozen:
+            self.frozen_run = 0
+            self.live_run += 1
+            if self.live_run >= FROZEN_SAMPLES:
+                self.is_frozen = False
+        else:
+            self.frozen_run = 0
+        return self.is_frozen
 
     def age_ms(self):
         """Milliseconds since the last good sample (or since start-up)."""

@@ -31,7 +31,7 @@ except ImportError:  # CPython
         return x
 
 from roboray.firmware.drivers.registers import Registers
-from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, FROZEN_SAMPLES, Health
+from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, Health
 
 ADDRESS = const(0x1C)
 
@@ -82,13 +82,6 @@ class LIS3MDL(Registers):
         self._gauss = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 4)
-        #: New samples in a row whose output counts all repeat the last ones,
-        #: and in a row that moved (counted while frozen only: it ends
-        #: that); ``frozen`` after FROZEN_SAMPLES of the
-        #: first until as many of the second.
-        self.frozen_run = 0
-        self.live_run = 0
-        self.frozen = False
         self.health = Health(clock, timeout_ms)
         self.overruns = 0
         self._check_identity(_WHO_AM_I, _ID)
@@ -137,25 +130,11 @@ class LIS3MDL(Registers):
         m1 = ((b[3] | (b[4] << 8)) ^ 0x8000) - 0x8000
         m2 = ((b[5] | (b[6] << 8)) ^ 0x8000) - 0x8000
         # a live part's noise changes some count every sample (health.py)
-        if m0 == raw[1] and m1 == raw[2] and m2 == raw[3]:
-            self.frozen_run += 1
-            self.live_run = 0
-            if self.frozen_run >= FROZEN_SAMPLES:
-                self.frozen = True
-        elif self.frozen:
-            # moving samples are counted only while frozen, where they matter:
-            # as many as froze it bring it back to life (one change, such as
-            # the reset of a reconfiguration, is not)
-            self.frozen_run = 0
-            self.live_run += 1
-            if self.live_run >= FROZEN_SAMPLES:
-                self.frozen = False
-        else:
-            self.frozen_run = 0
+        frozen = health.frozen(m0 == raw[1] and m1 == raw[2] and m2 == raw[3])
         raw[1] = m0
         raw[2] = m1
         raw[3] = m2
-        if self.frozen:
+        if frozen:
             health.bad(ERR_FROZEN)
             self._recover()
             return False

@@ -33,7 +33,7 @@ except ImportError:  # CPython
         return x
 
 from roboray.firmware.drivers.registers import Registers
-from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, FROZEN_SAMPLES, Health
+from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, Health
 
 ADDRESS = const(0x6A)
 
@@ -83,13 +83,6 @@ class LSM6DSOX(Registers):
         self._gyro = array("f", [0.0, 0.0, 0.0])
         self.temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 7)
-        #: New samples in a row whose output counts all repeat the last ones,
-        #: and in a row that moved (counted while frozen only: it ends
-        #: that); ``frozen`` after FROZEN_SAMPLES of the
-        #: first until as many of the second.
-        self.frozen_run = 0
-        self.live_run = 0
-        self.frozen = False
         self.health = Health(clock, timeout_ms)
         self._check_identity(_WHO_AM_I, _ID)
         self._configure()
@@ -139,21 +132,8 @@ class LSM6DSOX(Registers):
         a1 = ((b[12] | (b[13] << 8)) ^ 0x8000) - 0x8000
         a2 = ((b[14] | (b[15] << 8)) ^ 0x8000) - 0x8000
         # a live part's noise changes some count every sample (health.py)
-        if a0 == raw[4] and g0 == raw[1] and a1 == raw[5] and a2 == raw[6] and g1 == raw[2] and g2 == raw[3]:
-            self.frozen_run += 1
-            self.live_run = 0
-            if self.frozen_run >= FROZEN_SAMPLES:
-                self.frozen = True
-        elif self.frozen:
-            # moving samples are counted only while frozen, where they matter:
-            # as many as froze it bring it back to life (one change, such as
-            # the reset of a reconfiguration, is not)
-            self.frozen_run = 0
-            self.live_run += 1
-            if self.live_run >= FROZEN_SAMPLES:
-                self.frozen = False
-        else:
-            self.frozen_run = 0
+        frozen = health.frozen(a0 == raw[4] and g0 == raw[1] and a1 == raw[5]
+                               and a2 == raw[6] and g1 == raw[2] and g2 == raw[3])
         raw[0] = t
         raw[1] = g0
         raw[2] = g1
@@ -161,7 +141,7 @@ class LSM6DSOX(Registers):
         raw[4] = a0
         raw[5] = a1
         raw[6] = a2
-        if self.frozen:
+        if frozen:
             health.bad(ERR_FROZEN)
             self._recover()
             return False
