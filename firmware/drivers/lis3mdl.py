@@ -147,9 +147,4 @@ class LIS3MDL(Registers):
     @property
     def mag_gauss(self):
         """The last sample's field, gauss (chip axes)."""
-        raw = self.raw
-        m = self._gauss
-        m[0] = raw[1] * MAG_SCALE
-        m[1] = raw[2] * MAG_SCALE
-        m[2] = raw[3] * MAG_SCALE
-        return m
+        return self._scaled(self._gauss, 1, MAG_SCALE)

@@ -153,19 +153,9 @@ class LSM6DSOX(Registers):
     @property
     def accel(self):
         """The last sample's specific force, m/s^2 (chip axes)."""
-        raw = self.raw
-        a = self._accel
-        a[0] = raw[4] * ACCEL_SCALE
-        a[1] = raw[5] * ACCEL_SCALE
-        a[2] = raw[6] * ACCEL_SCALE
-        return a
+        return self._scaled(self._accel, 4, ACCEL_SCALE)
 
     @property
     def gyro(self):
         """The last sample's rate, rad/s (chip axes)."""
-        raw = self.raw
-        g = self._gyro
-        g[0] = raw[1] * GYRO_SCALE
-        g[1] = raw[2] * GYRO_SCALE
-        g[2] = raw[3] * GYRO_SCALE
-        return g
+        return self._scaled(self._gyro, 1, GYRO_SCALE)

