@@ -18,7 +18,10 @@ MicroPython. Parts, one module each:
 
 API (both controllers)::
 
-    from roboray.shared.control import Controller   # BacksteppingController alike
+    from roboray.shared.control import Controller
+    # the comparison controller, same API (not loaded by the package, so
+    # the flight firmware does not carry it and its plant tables in RAM):
+    from roboray.shared.control.backstepping import BacksteppingController
     c = Controller(params)      # a shared.params.ParamTable, or None for defaults
     c.set_target(north, east)   # m, NED from the release point, for TARGET;
                                 # optional third argument: the bottom's depth
@@ -51,7 +54,6 @@ Cost on MicroPython: ``roboray-sim bench control`` prints the heap bytes and
 time of a step; the tests hold the cascade to that figure.
 """
 
-from roboray.shared.control.backstepping import BacksteppingController
 from roboray.shared.control.cascade import Controller
 
-__all__ = ["Controller", "BacksteppingController"]
+__all__ = ["Controller"]
