@@ -25,7 +25,7 @@ from roboray.tools.flash import manifest
 from roboray.tools.flash.board import TMP_SUFFIX, Board
 from roboray.tools.flash.build import build
 from roboray.tools.flash.deploy import deploy, status
-from roboray.tools.flash.errors import AppDidNotStart, NotEnoughSpace, ShadowedModule
+from roboray.tools.flash.errors import AppDidNotStart, IncompatibleBoard, NotEnoughSpace, ShadowedModule
 from roboray.tools.micropython.virtual_board import VirtualBoard, twin_builtins
 
 pytestmark = pytest.mark.micropython
@@ -228,6 +228,56 @@ def test_a_killed_deploy_leaves_importable_modules_and_the_next_one_completes(bo
     for path, entry in new.files.items():
         assert hashlib.sha256((fs / path.lstrip("/")).read_bytes()).hexdigest() == entry["sha256"]
     assert json.loads((fs / manifest.BOARD_PATH.lstrip("/")).read_text())["complete"] is True
+
+
+def test_a_file_the_flash_stores_wrong_is_refused_and_the_old_one_kept(deployed, tmp_path):
+    """The board reads every file back before it replaces the old one: a
+    flash that stores a bit wrong fails the deployment with the file named,
+    the board still runs the old version, and the next deployment (the flash
+    behaving again) completes."""
+    for part in ("fs", "src", "out"):
+        shutil.copytree(deployed[part], tmp_path / part)
+    src, out, fs = tmp_path / "src", tmp_path / "out", tmp_path / "fs"
+    quat = src / "shared" / "quat.py"
+    quat.write_text(quat.read_text() + "\n_FLAKY = 1\n")
+    new = build(out, src_root=src)
+    target = "/lib/roboray/shared/quat.mpy"
+    old_sha = deployed["build"].files[target]["sha256"]
+    assert new.files[target]["sha256"] != old_sha
+    with VirtualBoard(fs_dir=fs, modules=twin_builtins(), bad_writes=(target, 1)) as vb:
+        proc = flash("deploy", "--port", vb.device, "--src", str(src), "--out", str(out), "--no-reset")
+        assert proc.returncode != 0
+        err = proc.stderr.strip().splitlines()
+        assert "hash mismatch after copying %s" % target in err[-1] and "Traceback" not in proc.stderr
+        time.sleep(0.2)  # the board mirrors its flash after each input chunk
+        assert hashlib.sha256((fs / target.lstrip("/")).read_bytes()).hexdigest() == old_sha
+        assert not list(fs.rglob("*" + TMP_SUFFIX))
+        assert json.loads((fs / manifest.BOARD_PATH.lstrip("/")).read_text())["complete"] is False
+        assert board_exec(vb.device, "import roboray.shared.quat as q\nprint(hasattr(q, '_FLAKY'))").strip() == "False"
+
+        proc = flash("deploy", "--port", vb.device, "--src", str(src), "--out", str(out), "--no-reset", "--json")
+        assert proc.returncode == 0, proc.stderr
+        report = json.loads(proc.stdout)
+        assert report["verified"] is True and target in report["copied"]
+        time.sleep(0.2)
+        for path, entry in new.files.items():
+            assert hashlib.sha256((fs / path.lstrip("/")).read_bytes()).hexdigest() == entry["sha256"], path
+
+
+def test_a_build_for_another_mpy_version_is_refused_before_copying(board):
+    """The board reports the .mpy version its MicroPython loads; a build
+    from another mpy-cross (here: the manifest of one made for .mpy 5) is
+    refused with what to do, and nothing on the board changes."""
+    quat = board.src / "shared" / "quat.py"
+    quat.write_text(quat.read_text() + "\n_OTHER = 1\n")
+    b = build(board.out, src_root=board.src)
+    b.manifest["mpy_version"] = "5.0"
+    before = snapshot(Path(board.fs_dir))
+    with Board(board.device) as bd:
+        with pytest.raises(IncompatibleBoard, match=r"loads \.mpy version 6, this build is \.mpy 5\.0.*--source"):
+            deploy(bd, b, reset=False)
+    time.sleep(0.2)
+    assert snapshot(Path(board.fs_dir)) == before
 
 
 # ------------------------------------------------------------- start-up

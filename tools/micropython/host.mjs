@@ -23,7 +23,11 @@
 //                       while Python runs (see "Ctrl-C" below);
 //         flash_bytes   capacity os.statvfs reports, as a board's flash does;
 //         modules       host .py files the board offers like built-in modules
-//                       (the twin's machine), outside the synced flash.
+//                       (the twin's machine), outside the synced flash;
+//         bad_writes    [path_prefix, n]: the first n writes to files whose
+//                       path starts with path_prefix store their first byte
+//                       with its low bit flipped, as a flash that programs a
+//                       bit wrong (see "Bad writes" below).
 //
 // Everything is synchronous on purpose: MicroPython runs on this thread, so
 // reading stdin with fs.readSync is the only way to answer a request made
@@ -267,6 +271,23 @@ function installInterrupt(M, fd, state) {
   return drain;
 }
 
+// Bad writes. The flash is Emscripten's in-memory file system, which the
+// interpreter's write() reaches through FS.write; wrapping it corrupts what
+// is stored, not what was sent, so a host tool can only find out by
+// reading the file back, as on a board.
+function installBadWrites(mp, prefix, count) {
+  const write = mp.FS.write;
+  mp.FS.write = function (stream, buffer, offset, length, position, canOwn) {
+    if (count > 0 && length > 0 && stream.path && stream.path.startsWith(prefix)) {
+      count -= 1;
+      const data = Uint8Array.from(buffer.subarray(offset, offset + length));
+      data[0] ^= 1;
+      return write.call(this, stream, data, 0, length, position, false);
+    }
+    return write.call(this, stream, buffer, offset, length, position, canOwn);
+  };
+}
+
 async function replMode() {
   const fsDir = process.argv[4];
   const heap = parseInt(process.argv[5] || "8388608", 10);
@@ -287,6 +308,7 @@ async function replMode() {
   });
   const M = mp._module;
   loadTree(mp, fsDir, ROOT);
+  if (options.bad_writes) installBadWrites(mp, options.bad_writes[0], options.bad_writes[1]);
   const modules = options.modules || [];
   if (modules.length) mp.FS.mkdirTree(BUILTINS);
   for (const file of modules) {

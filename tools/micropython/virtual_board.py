@@ -25,6 +25,10 @@ It also behaves like a board where a host tool relies on it:
   twin's emulated ``machine``): importable, first on ``sys.path``, but
   outside the board's visible and synced file system (``/home/roboray``).
 
+And it can fail as a board's flash can: ``bad_writes=(prefix, n)`` stores
+the first ``n`` writes to files under ``prefix`` with a bit flipped, for
+testing that a host tool reads back what it wrote.
+
 The file system is a host folder (``fs_dir``), mirrored after every input
 chunk, so it survives a restart of the virtual board like flash does.
 """
@@ -103,6 +107,9 @@ class VirtualBoard:
         own (meaningless) figures.
     modules:
         Host ``.py`` files offered like built-in modules, by their names.
+    bad_writes:
+        ``(path_prefix, n)``: the first ``n`` writes to files whose board
+        path starts with ``path_prefix`` are stored with a bit flipped.
     """
 
     def __init__(
@@ -111,6 +118,7 @@ class VirtualBoard:
         heap_bytes: int = 8 * 1024 * 1024,
         flash_bytes: Optional[int] = PICO2_FLASH_BYTES,
         modules: Iterable[os.PathLike | str] = (),
+        bad_writes: Optional[tuple[str, int]] = None,
     ) -> None:
         if flash_bytes is not None and flash_bytes < 16 * 4096:
             raise ValueError("flash_bytes must be at least 64 KiB, got %r" % flash_bytes)
@@ -123,6 +131,7 @@ class VirtualBoard:
         self.fs_dir.mkdir(parents=True, exist_ok=True)
         self.heap_bytes = heap_bytes
         self.flash_bytes = flash_bytes
+        self.bad_writes = bad_writes
         self._intr_r, self._intr_w = os.pipe()
         os.set_blocking(self._intr_r, False)
         os.set_blocking(self._intr_w, False)
@@ -146,6 +155,8 @@ class VirtualBoard:
             options["flash_bytes"] = self.flash_bytes
         if self.modules:
             options["modules"] = [str(m) for m in self.modules]
+        if self.bad_writes is not None:
+            options["bad_writes"] = [str(self.bad_writes[0]), int(self.bad_writes[1])]
         self._proc = subprocess.Popen(
             [node_executable(), str(host_script()), "repl", str(interpreter_module()),
              str(self.fs_dir), str(self.heap_bytes), json.dumps(options)],
