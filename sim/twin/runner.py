@@ -69,6 +69,9 @@ log = logging.getLogger("roboray.sim.twin")
 FRAME_US = 20000
 STEP_US = 10000
 PARAM_PATH = "/params.bin"
+#: ``--interpreter``: the WebAssembly port (the default), MicroPython's unix
+#: port (native, ``tools/micropython/unix_port.py``), CPython.
+INTERPRETERS = ("micropython", "micropython-unix", "cpython")
 #: The failsafe names by bit, as ``firmware/failsafe.py`` numbers them.
 FAILSAFES = ("link lost", "leak", "battery low", "estimator", "depth sensor", "IMU", "compass", "max depth",
              "loop overruns", "watchdog reset", "battery monitor")
@@ -194,21 +197,30 @@ class CPythonBoard:
         p = self._host(path)
         return p.read_bytes() if p.exists() else None
 
+    def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
+        """The child's command line and environment (None: ours)."""
+        return ([sys.executable, "-m", "roboray.sim.twin.cpython_board", str(fd_in), str(fd_out),
+                 json.dumps(config), build_info()[1]], None)
+
+    @staticmethod
+    def _answer(text: str) -> bytes:
+        """An answer as the child reads it: one line."""
+        return text.encode() + b"\n"
+
     def run(self, config: dict, first_reply: str) -> str:
         to_child_r, to_child_w = os.pipe()
         from_child_r, from_child_w = os.pipe()
         out_path = self.dir / "console.txt"
+        cmd, env = self._command(to_child_r, from_child_w, config)
         with open(out_path, "wb") as out:
-            proc = subprocess.Popen(
-                [sys.executable, "-m", "roboray.sim.twin.cpython_board", str(to_child_r), str(from_child_w),
-                 json.dumps(config), build_info()[1]],
-                pass_fds=(to_child_r, from_child_w), stdout=out, stderr=subprocess.PIPE)
+            proc = subprocess.Popen(cmd, env=env, pass_fds=(to_child_r, from_child_w), stdout=out,
+                                    stderr=subprocess.PIPE)
         os.close(to_child_r)
         os.close(from_child_w)
         reader = os.fdopen(from_child_r, "rb")
         writer = os.fdopen(to_child_w, "wb")
         try:
-            writer.write(first_reply.encode() + b"\n")
+            writer.write(self._answer(first_reply))
             writer.flush()
             while True:
                 line = reader.readline()
@@ -216,7 +228,7 @@ class CPythonBoard:
                     break
                 answer = self.on_request(line[:-1].decode())
                 if answer is not None:
-                    writer.write(answer.encode() + b"\n")
+                    writer.write(self._answer(answer))
                     writer.flush()
         finally:
             reader.close()
@@ -227,11 +239,62 @@ class CPythonBoard:
             err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
             rc = proc.wait()
         if rc != 0:
-            raise RuntimeError("the firmware's CPython process failed (exit %d): %s" % (rc, err.strip()[-2000:]))
+            raise RuntimeError("the firmware's %s process failed (exit %d): %s" % (self.name, rc, err.strip()[-2000:]))
         return out_path.read_text(errors="replace")
 
     def close(self) -> None:
         shutil.rmtree(self.dir, ignore_errors=True)
+
+
+class MicroPythonUnixBoard(CPythonBoard):
+    """The firmware on MicroPython's unix port, in a child process
+    (``tools/micropython/unix_port.py``): the same board code as the
+    WebAssembly port runs, as ``.mpy`` in a ``lib`` folder on its path,
+    ``hostlink`` over two pipes (``board/pipelink.py``), the collector
+    run once a simulated second (``board/lazygc.py``)."""
+
+    name = "micropython-unix"
+
+    #: MicroPython's heap: the firmware and the twin live in ~250 kB, and
+    #: a simulated second's garbage (``board/lazygc.py``) in a few hundred.
+    HEAP = "2M"
+
+    def __init__(self, on_request: Callable[[str], str]) -> None:
+        from roboray.sim import twin
+        from roboray.tools.micropython import interpreter, unix_port
+        from roboray.tools.micropython.mpycache import compiled
+
+        unix_port.require()
+        super().__init__(on_request)
+        self.version = "micropython-unix %s" % unix_port.version()
+        self.lib = self.dir / "lib"
+        for host_path, board_path in interpreter.board_sources() + twin.board_sources():
+            dest = self.lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            dest.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
+        (self.lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]).write_text(build_info()[1])
+
+    def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
+        from roboray.sim import twin
+        from roboray.tools.micropython import unix_port
+
+        code = ("import sys, json\n"
+                "from roboray.sim.twin.board import pipelink\n"
+                "pipelink.connect(%d, %d)\n"
+                "sys.modules['hostlink'] = pipelink\n"
+                "from roboray.sim.twin.board import lazygc\n"
+                "sys.modules['gc'] = lazygc\n"
+                "%s"
+                "from roboray.sim.twin.board import lockstep\n"
+                "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
+        env = dict(os.environ, MICROPYPATH=str(self.lib))
+        return unix_port.command("-X", "heapsize=" + self.HEAP, "-c", code), env
+
+    @staticmethod
+    def _answer(text: str) -> bytes:
+        """An answer as ``pipelink`` reads it: its length, then its bytes."""
+        data = text.encode()
+        return b"%08d" % len(data) + data
 
 
 # ---------------------------------------------------------------- the twin
@@ -251,8 +314,8 @@ class Twin:
         from roboray.sim.vehicle import load_params
 
         self.options = options
-        if options.interpreter not in ("micropython", "cpython"):
-            raise ValueError("--interpreter %r: micropython or cpython" % options.interpreter)
+        if options.interpreter not in INTERPRETERS:
+            raise ValueError("--interpreter %r: %s" % (options.interpreter, ", ".join(INTERPRETERS)))
         if options.speedup is not None and not options.speedup > 0:
             raise ValueError("--speedup %r must be > 0" % options.speedup)
         self.scenario = scenarios.make(options.scenario, options.depth, options.target, options.duration)
@@ -487,6 +550,8 @@ class Twin:
         t0 = time.perf_counter()
         if o.interpreter == "micropython":
             self.board = MicroPythonBoard(self._on_request, self._interpreter)
+        elif o.interpreter == "micropython-unix":
+            self.board = MicroPythonUnixBoard(self._on_request)
         else:
             self.board = CPythonBoard(self._on_request)
         try:
