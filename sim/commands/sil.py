@@ -65,6 +65,13 @@ def _twin(args: argparse.Namespace, **kwargs):
                                   args.duration)
     except ValueError as exc:
         raise CliError(str(exc))
+    if args.interpreter == "micropython-unix":
+        from roboray.tools.micropython import unix_port
+
+        try:
+            unix_port.require()
+        except RuntimeError as exc:
+            raise CliError("--interpreter micropython-unix: %s" % exc)
     if scenario.needs_controller and app.control_mod is None:
         raise CliError("scenario %s needs the controller (shared/control), which this firmware does not have "
                        "yet; passive-drop and bottom-rest fly without it" % args.scenario)
