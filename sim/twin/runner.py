@@ -64,6 +64,8 @@ import numpy as np
 from roboray.sim.twin import faults as faults_mod
 from roboray.sim.twin import scenarios
 from roboray.sim.twin.ground import MODES, Action, Framer, Ground
+from roboray.tools.micropython.interpreter import wait_readable
+
 log = logging.getLogger("roboray.sim.twin")
 
 FRAME_US = 20000
@@ -217,21 +219,28 @@ class CPythonBoard:
                                     stderr=subprocess.PIPE)
         os.close(to_child_r)
         os.close(from_child_w)
-        reader = os.fdopen(from_child_r, "rb")
         writer = os.fdopen(to_child_w, "wb")
+        pending = b""
         try:
             writer.write(self._answer(first_reply))
             writer.flush()
             while True:
-                line = reader.readline()
-                if not line:
-                    break
-                answer = self.on_request(line[:-1].decode())
+                while b"\n" not in pending:
+                    # polled first, as for the WebAssembly port (SPIN_S)
+                    wait_readable(from_child_r, SPIN_S, None)
+                    chunk = os.read(from_child_r, 1 << 16)
+                    if not chunk:
+                        break
+                    pending += chunk
+                if b"\n" not in pending:
+                    break   # the board's process ended
+                line, pending = pending.split(b"\n", 1)
+                answer = self.on_request(line.decode())
                 if answer is not None:
                     writer.write(self._answer(answer))
                     writer.flush()
         finally:
-            reader.close()
+            os.close(from_child_r)
             try:
                 writer.close()
             except BrokenPipeError:

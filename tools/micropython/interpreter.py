@@ -51,6 +51,28 @@ __alloc = 0
 """
 
 
+def wait_readable(fd: int, spin_s: float, timeout_s: Optional[float]) -> bool:
+    """Wait until ``fd`` has data: poll for up to ``spin_s``, then sleep in
+    ``select`` for up to ``timeout_s`` (None: for ever); False on time-out.
+
+    Polling first, because a process asleep on a pipe costs the one that
+    wakes it: on this machine Node's write of a hostlink request took
+    ~100 us when we were asleep in select, ~15-25 us when we were polling
+    (``roboray-sim bench sil``: the board's hostlink time per frame fell
+    from 105-280 us to 65-85 us). ``sched_yield`` between polls gives the
+    core away whenever anything else could use it.
+    """
+    if spin_s > 0:
+        end = time.perf_counter() + spin_s
+        while True:
+            if select.select([fd], [], [], 0)[0]:
+                return True
+            if time.perf_counter() >= end:
+                break
+            os.sched_yield()
+    return bool(select.select([fd], [], [], timeout_s)[0])
+
+
 class MicroPythonError(Exception):
     """Code raised inside MicroPython; ``traceback`` is MicroPython's own text."""
 
@@ -115,7 +137,7 @@ class MicroPython:
     spin_s:
         How long to poll for the interpreter's next message before sleeping
         until it comes (0: sleep at once). Settable; the twin polls while
-        the board runs a frame (see ``_readable``).
+        the board runs a frame (see ``wait_readable``).
     """
 
     def __init__(
@@ -145,31 +167,11 @@ class MicroPython:
         self.exec(_PRELUDE)
 
     # ----------------------------------------------------------- transport
-    def _readable(self, fd: int) -> bool:
-        """Wait until ``fd`` has data; False after ``timeout_s``.
-
-        Polling first, because a process asleep on a pipe costs the one that
-        wakes it: on this machine Node's write of a hostlink request took
-        ~100 us when we were asleep in select, ~15-25 us when we were polling
-        (``roboray-sim bench sil``: the board's hostlink time per frame fell
-        from 105-280 us to 65-85 us). ``sched_yield`` between polls gives the
-        core away whenever anything else could use it.
-        """
-        if self.spin_s > 0:
-            end = time.perf_counter() + self.spin_s
-            while True:
-                if select.select([fd], [], [], 0)[0]:
-                    return True
-                if time.perf_counter() >= end:
-                    break
-                os.sched_yield()
-        return bool(select.select([fd], [], [], self.timeout_s)[0])
-
     def _read_message(self) -> dict:
         assert self._proc.stdout is not None
         fd = self._proc.stdout.fileno()
         while b"\n" not in self._buf:
-            ready = self._readable(fd)
+            ready = wait_readable(fd, self.spin_s, self.timeout_s)
             chunk = os.read(fd, 1 << 16) if ready else b""
             if not chunk:
                 err = self._proc.stderr.read().decode(errors="replace") if self._proc.poll() is not None and self._proc.stderr else ""
