@@ -9,9 +9,9 @@ runs (``vclock``), so a collection changes nothing the firmware sees; only
 the twin's speed. Collecting every hundredth call (once a simulated second)
 keeps the garbage bounded (a slot leaves a few kilobytes: the estimator's
 boxed floats) at a negligible cost. The WebAssembly port needs no such
-thing: its collector cannot free while a run is in progress (its roots are
-not all in linear memory), so ``gc.collect()`` there costs ~2 us and frees
-nothing until the run ends.
+thing: its collector frees nothing while a run is in progress (measured:
+garbage made and collected inside one ``exec`` stays allocated until the
+next), so ``gc.collect()`` there costs ~2 us.
 
 Installed as ``sys.modules['gc']`` before the firmware is imported
 (``runner.MicroPythonUnixBoard``); everything but ``collect`` is the real
