@@ -1,8 +1,9 @@
 """The twin: the firmware's own entry point flying the simulated vehicle.
 
 ``Twin(options).run()`` boots ``roboray.firmware.app.main()`` on a real
-MicroPython interpreter (``--interpreter micropython``, the default) or on
-CPython in a child process (``cpython``), with the emulated Pico 2 of
+MicroPython interpreter (``--interpreter micropython``: the WebAssembly
+port, the default; ``micropython-unix``: the native unix port in a child
+process) or on CPython in a child process (``cpython``), with the emulated Pico 2 of
 ``board/`` under it, and answers its ``hostlink.request`` once per servo
 frame (20 ms of virtual time; ``board/lockstep.py`` states the protocol).
 
@@ -103,7 +104,7 @@ class Options:
 
 # ---------------------------------------------------------------- boards
 #: How long the host polls for the board's next request before it sleeps
-#: (``MicroPython._readable``): longer than the board takes for a frame
+#: (``interpreter.wait_readable``): longer than the board takes for a frame
 #: (~1 ms), so the host is awake when the request comes and the board's
 #: write does not pay for waking it.
 SPIN_S = 0.003
