@@ -16,7 +16,7 @@
    ``Failsafes`` (arming checks and failsafes), ``Modes``, the MAVLink
    ``Link`` on the radio and ``Flight`` (modes to wing commands, with the
    controller of ``shared/control`` when the firmware has one);
-5. starts the watchdog and runs the scheduler with seven tasks:
+5. starts the watchdog and runs the scheduler with eight tasks:
 
    ========  ======  ======================================================
    task      period  work
@@ -29,7 +29,17 @@
    leak      50 ms   leak probe, debounced
    battery   100 ms  pack voltage, filtered
    params    1 s     saves the parameters when they changed
+   gc        300 ms  ``gc.collect()`` (phase 9: a depth slot, no control)
    ========  ======  ======================================================
+
+   Why the collection is a task: on a Pico 2 one ``gc.collect()`` walks
+   the whole live heap (tens of ms with the bytecode on it; see
+   ``docs/design/board-time.md``), so the loop cannot collect every slot.
+   The loop leaves ~3.5 kB of garbage a slot (boxed floats, 16 bytes
+   each), ~5 kB in TARGET; 30 slots of it fit the heap with room to spare,
+   so a collection every 300 ms never lets the heap fill (an allocation
+   that finds it full would collect in the middle of a task), and it runs
+   in an odd slot, where the controller does not.
 
 ``build()`` does 1-4 and returns the ``Vehicle``; ``main()`` keeps it in
 ``vehicle`` while it runs, so the REPL (after Ctrl-C) and the twin can
@@ -82,6 +92,8 @@ RADIO_MS = 10
 LEAK_MS = 50
 BATTERY_MS = 100
 PARAMS_MS = 1000    # saves the parameters when they changed
+GC_MS = 300         # the collection (see the table above)
+GC_PHASE = 9
 
 WDT_TIMEOUT_MS = 1000
 PARAM_PATH = "/params.bin"
@@ -238,8 +250,8 @@ class Vehicle:
         self.flight = Flight(modes, self.wings, nav, fs, link.ep, t, self.params, self.clock, self.controller)
 
     def build_loop(self, reset_cause=0):
-        """The scheduler with the vehicle's seven tasks."""
-        s = Scheduler(self.clock, MAIN_MS, reset_cause=reset_cause)
+        """The scheduler with the vehicle's eight tasks."""
+        s = Scheduler(self.clock, MAIN_MS, reset_cause=reset_cause, collect=False)
         s.add("nav", self.nav.step, MAIN_MS)
         s.add("link", self.link.step, RADIO_MS)
         s.add("depth", self.nav.depth_step, DEPTH_MS, phase=1)
@@ -247,7 +259,9 @@ class Vehicle:
         s.add("leak", self.leak.update, LEAK_MS, phase=3)
         s.add("battery", self.battery.update, BATTERY_MS, phase=5)
         s.add("params", self.store.service, PARAMS_MS, phase=7)
+        s.add("gc", gc.collect, GC_MS, phase=GC_PHASE)
         self.sched = s
+        self.store.expect_delay = s.expect_delay_ms
         self.failsafes.sched = s
         self.reporter.sched = s
         return s

@@ -3,6 +3,9 @@
 ``Link.step()`` (every 10 ms) moves the radio's bytes (``Radio.service``),
 lets the endpoint (``shared/mavlink/endpoint.py``) handle what arrived and
 send what is due, and keeps the telemetry current (``firmware/telemetry.py``).
+Running every slot, it sees every slot's time (the scheduler's
+``last_loop_us``, the slot before this one) and keeps the longest in the
+endpoint's ``slot_max_us``, which the status report sends and starts over.
 What the ground sends reaches the rest of the firmware through it:
 
 - position fixes (ATT_POS_MOCAP) go to ``Navigation.fix`` as they arrive;
@@ -103,6 +106,12 @@ class Link:
             r.fill()
         self._n = n
         ep = self.ep
+        sched = r.sched
+        if sched is not None:
+            # the previous slot's time: the status report sends the longest
+            w = sched.last_loop_us
+            if w > ep.slot_max_us:
+                ep.slot_max_us = w
         ep.update(self._clock.ticks_ms())
         if ep.reboot_requested:
             ep.reboot_requested = False

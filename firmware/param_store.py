@@ -147,6 +147,13 @@ def decode(data):
     return entries, None
 
 
+#: What a save stalls the Pico 2 for, at most in practice: writing the
+#: new file erases a 4 kB sector (45 ms typical, W25Q32JV datasheet) and
+#: programs its pages, the renames commit littlefs metadata (0.4 ms a page),
+#: and every sixteenth commit or so compacts a metadata pair (another erase).
+SAVE_STALL_MS = 150
+
+
 class ParamStore:
     """Load and save ``table`` at ``path`` (``path + '.tmp'``, ``'.bak'`` beside it).
 
@@ -171,6 +178,9 @@ class ParamStore:
         self.save_errors = 0
         self.last_error = None
         self._saved_version = getattr(table, "version", 0)
+        #: ``expect_delay(ms)``: told before a save stalls the chip (the
+        #: scheduler's ``expect_delay_ms``), or None
+        self.expect_delay = None
 
     # ---------------------------------------------------------------- read
     def _read(self, path):
@@ -267,9 +277,14 @@ class ParamStore:
         return getattr(self.table, "version", 0) != self._saved_version
 
     def service(self):
-        """Scheduler task: save when the table changed; never raises on flash errors."""
+        """Scheduler task: save when the table changed; never raises on flash errors.
+
+        A save stalls the chip (``SAVE_STALL_MS``): the loop is told first
+        (``expect_delay``, the scheduler's ``expect_delay_ms``)."""
         if not self.dirty():
             return False
+        if self.expect_delay is not None:
+            self.expect_delay(SAVE_STALL_MS)
         try:
             self.save()
             return True

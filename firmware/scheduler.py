@@ -6,9 +6,11 @@ slot k starts at ``t0 + k * period``. Each task runs every ``n`` slots
 sensor on odd slots, control on even ones). Which tasks are due in a slot
 is looked up in a table built when tasks are added (one entry a slot over
 the periods' least common multiple, at most 1000 slots). A slot runs its
-due tasks in the order they were added, then ``gc.collect()`` (always here, so a
-collection never lands in the middle of a task), then feeds the watchdog if
-the loop is healthy, then sleeps to the next slot.
+due tasks in the order they were added, then its collector (``collect``:
+``gc.collect()`` by default, so a collection never lands in the middle of
+a task; ``False``: none, when the application schedules the collection
+as a task of its own), then feeds the watchdog if the loop is healthy,
+then sleeps to the next slot.
 
 A slot whose work ends after the next slot began is an overrun: the next
 slot starts at once, late; slots that passed entirely are skipped (counted
@@ -23,6 +25,14 @@ clock in simulation (its ``sleep_us`` is where simulated time moves).
 Adding a task is one line: ``sched.add("control", ctrl.step, 20)``. A task
 is called with no arguments; ``now_us``/``now_ms`` hold the slot's start.
 A slot allocates nothing of its own; ``report()`` (a string) does.
+
+A task about to stall the chip on purpose (a flash write: erasing a 4 kB
+sector of the Pico 2's flash suspends execution for ~45 ms) says so first
+with ``expect_delay_ms(ms)``, as ArduPilot's ``expect_delay_ms``: a slot
+that ends late within what was announced is counted in ``stalls``, not as
+an overrun, so neither the overrun failsafe nor the watchdog's hunger
+takes a planned stall for a loop in trouble; the slots it spanned are
+still counted in ``skipped``.
 
 Timing costs one clock reading a task: a task's time runs from the reading
 that ended the one before it (the slot's start for the first), so it
@@ -74,7 +84,8 @@ class Scheduler:
     reset_cause:
         ``machine.reset_cause()`` at boot, kept for the reports.
     collect:
-        The collector to run once a slot (``gc.collect``).
+        The collector to run at the end of every slot (``gc.collect``);
+        ``False``: none (the application collects in a task).
     """
 
     def __init__(self, clock, period_ms=10, wdt=None, overrun_limit=25, health=None, reset_cause=0,
@@ -87,7 +98,7 @@ class Scheduler:
         self.overrun_limit = overrun_limit
         self.health = health
         self.reset_cause = reset_cause
-        self._collect = collect if collect is not None else gc.collect
+        self._collect = gc.collect if collect is None else (collect or None)
         self.names = []
         self._fns = []
         self._every = array("H", [0] * _MAX_TASKS)
@@ -108,6 +119,8 @@ class Scheduler:
         self.cycles = 0
         self.overruns = 0
         self.consecutive_overruns = 0
+        self.stalls = 0
+        self._expect_us = 0   # announced stall in this slot (expect_delay_ms)
         self.skipped = 0
         self.last_loop_us = 0
         self.max_loop_us = 0
@@ -163,6 +176,13 @@ class Scheduler:
         self._plan = plan
         self._planned = self._n
 
+    def expect_delay_ms(self, ms):
+        """The running task is about to stall the chip for up to ``ms``: a
+        slot late by no more than that is a stall, not an overrun."""
+        us = ms * 1000
+        if us > self._expect_us:
+            self._expect_us = us
+
     def index(self, name):
         """Index of task ``name`` (for its counters), -1 if none."""
         for i in range(self._n):
@@ -201,7 +221,8 @@ class Scheduler:
             runs[i] += 1
             if dt > task_max[i]:
                 task_max[i] = dt
-        self._collect()
+        if self._collect is not None:
+            self._collect()
         t1 = clock.ticks_us()
         dt = ((t1 - t0 + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
         self.gc_us = dt
@@ -228,14 +249,19 @@ class Scheduler:
             if work > self.max_loop_us:
                 self.max_loop_us = work
             # load in permille, smoothed over ~8 slots
-            self.load_permille += (work * 1000 // period - self.load_permille) >> 3
+            self.load_permille += (work * 1000 // period - self.load_permille + 4) >> 3
             self.cycles += 1
             done += 1
             nxt = (self._deadline + period) & _TICKS_MAX
             late = ((end - nxt + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
+            expected = self._expect_us
+            self._expect_us = 0
             if late >= 0:
-                self.overruns += 1
-                self.consecutive_overruns += 1
+                if late < expected:
+                    self.stalls += 1
+                else:
+                    self.overruns += 1
+                    self.consecutive_overruns += 1
                 missed = late // period
                 if missed:
                     self.skipped += missed
@@ -263,9 +289,10 @@ class Scheduler:
 
     def report(self):
         """The loop's figures as text, one line a task (allocates: on request)."""
-        lines = ["loop %d Hz: %d cycles, %d overruns (%d slots skipped), max %d us, load %d permille, "
-                 "gc max %d us, watchdog fed %d withheld %d"
-                 % (1000000 // self.period_us, self.cycles, self.overruns, self.skipped, self.max_loop_us,
+        lines = ["loop %d Hz: %d cycles, %d overruns, %d planned stalls (%d slots skipped), max %d us, "
+                 "load %d permille, gc max %d us, watchdog fed %d withheld %d"
+                 % (1000000 // self.period_us, self.cycles, self.overruns, self.stalls, self.skipped,
+                    self.max_loop_us,
                     self.load_permille, self.gc_max_us, self.wdt_feeds, self.wdt_withheld)]
         for i in range(self._n):
             lines.append("  %-10s every %3d ms: %d runs, max %d us, %d errors" % (

@@ -105,7 +105,8 @@ def do_status(args: argparse.Namespace) -> None:
         "roll_deg": state.att[0] * deg, "pitch_deg": state.att[1] * deg, "yaw_deg": state.att[2] * deg,
         "depth_m": state.depth, "position_ned_m": list(state.pos), "velocity_ned_mps": list(state.vel),
         "wings_deg": state.wings, "battery_v": state.battery_v, "battery_pct": state.battery_pct,
-        "failsafe_flags": state.failsafe_flags, "frames": state.received, "lost": state.lost,
+        "failsafe_flags": state.failsafe_flags, "load_pct": state.load_pct, "worst_slot_ms": state.worst_slot_ms,
+        "frames": state.received, "lost": state.lost,
     }
     emit(args, _finite(result), lambda r: "\n".join(render(state, link.describe())))
 

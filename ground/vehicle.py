@@ -10,7 +10,10 @@ demo-vehicle`` serves it for a person.
 
 With ``animate`` the telemetry moves (a scripted slow descent with a
 turning heading and swinging wings) so a ``watch`` screen has something to
-show; it is a demonstration, not a simulation.
+show; it is a demonstration, not a simulation. The main loop's figures are
+scripted too, as the firmware's scheduler would report them: a load of
+43.1 % and a worst slot of 6.8 ms held still, wandering around those with
+``animate``.
 """
 
 from __future__ import annotations
@@ -60,6 +63,15 @@ __tel.battery[1] = 0.4
 __tel.battery[2] = 0.93
 __signing = Signing(%(key)s)
 __ep = Endpoint(HostlinkTransport(), __params, __modes, __tel, __signing)
+__tel.load_permille = 431
+
+def __loop_figures(t):
+    # what firmware/link.py passes on from the scheduler: its load (permille)
+    # and the time of every slot (us), the longest of which the status sends
+    __tel.load_permille = 431 + int(40.0 * math.sin(0.4 * t))
+    slot = 6800 + int(1500.0 * math.sin(1.3 * t))
+    if slot > __ep.slot_max_us:
+        __ep.slot_max_us = slot
 
 def __animate(t):
     d = 0.05 * t
@@ -84,8 +96,13 @@ def __serve(animate):
     t0 = time.ticks_ms()
     while True:
         now = time.ticks_ms()
-        if animate and __modes.armed:
-            __animate(time.ticks_diff(now, t0) / 1000.0)
+        if animate:
+            t = time.ticks_diff(now, t0) / 1000.0
+            __loop_figures(t)
+            if __modes.armed:
+                __animate(t)
+        elif __ep.slot_max_us < 6800:
+            __ep.slot_max_us = 6800
         __ep.update(now)
         if __ep.reboot_requested:
             __ep.reboot_requested = False

@@ -35,6 +35,8 @@ class State:
         self.battery_v = math.nan
         self.battery_pct = -1
         self.failsafe_flags = 0
+        self.load_pct = math.nan          # SYS_STATUS load (permille) / 10
+        self.worst_slot_ms = math.nan     # NAMED_VALUE_INT SLOT_MAX (us) / 1000
         self.radio: Optional[tuple[int, int, int, int]] = None
         self.received = 0
         self.lost = 0
@@ -70,14 +72,20 @@ class State:
             name = m.name
             if name == "depth_m":
                 self.depth = m.value
+            elif name == "SLOT_MAX":  # (as NAMED_VALUE_FLOAT from firmware without NAMED_VALUE_INT)
+                self.worst_slot_ms = m.value / 1000.0
             elif name.startswith("wing") and name.endswith("_deg") and name[4:5].isdigit():
                 i = int(name[4]) - 1
                 if 0 <= i < 4:
                     self.wings[i] = m.value
+        elif t == "NAMED_VALUE_INT":
+            if m.name == "SLOT_MAX":
+                self.worst_slot_ms = m.value / 1000.0
         elif t == "SERVO_OUTPUT_RAW":
             self.servo_us = [m.servo1_raw, m.servo2_raw, m.servo3_raw, m.servo4_raw]
         elif t == "SYS_STATUS":
             self.failsafe_flags = m.errors_count1
+            self.load_pct = m.load / 10.0
             if m.voltage_battery not in (0, 0xFFFF):
                 self.battery_v = m.voltage_battery / 1000.0
             self.battery_pct = m.battery_remaining
@@ -108,6 +116,10 @@ def _f(x: float, fmt: str) -> str:
     return "   --" if x != x else fmt % x
 
 
+def _pct(x: float) -> str:
+    return "--" if x != x else "%.1f%%" % x
+
+
 def render(s: State, source: str, now: Optional[float] = None) -> list[str]:
     """The screen as lines (no colour codes, so tests and pipes can read it)."""
     now = time.monotonic() if now is None else now
@@ -133,6 +145,7 @@ def render(s: State, source: str, now: Optional[float] = None) -> list[str]:
         "wings     %s deg   (%s us)" % (
             " ".join(_f(w, "%5.1f") for w in s.wings), " ".join("%4d" % u for u in s.servo_us)),
         "battery   %s V  %s" % (_f(s.battery_v, "%5.2f"), ("%d%%" % s.battery_pct) if s.battery_pct >= 0 else "--"),
+        "loop      load %s   worst slot %s ms" % (_pct(s.load_pct), _f(s.worst_slot_ms, "%.1f").strip()),
         "link      %d frames, %d lost (%.1f%%), %d dropouts%s" % (
             s.received, s.lost, loss, s.lost_links,
             ("   radio rssi %d/%d noise %d rxerr %d" % s.radio) if s.radio else ""),
@@ -151,7 +164,9 @@ def one_line(s: State, now: Optional[float] = None) -> str:
         return "waiting for heartbeat"
     if not ok:
         return "LINK LOST (%.0f s since last heartbeat)" % (now - s.last_hb)
-    return "%s %s depth %s m vz %s m/s roll %s pitch %s yaw %s deg wings %s batt %s V lost %d" % (
+    return ("%s %s depth %s m vz %s m/s roll %s pitch %s yaw %s deg wings %s batt %s V "
+            "load %s worst slot %s ms lost %d") % (
         s.mode_name(), "ARMED" if s.armed else "disarmed", _f(s.depth, "%.2f"), _f(s.vel[2], "%.3f"),
         _f(s.att[0] * deg, "%.1f"), _f(s.att[1] * deg, "%.1f"), _f(s.att[2] * deg, "%.1f"),
-        "/".join(_f(w, "%.0f") for w in s.wings), _f(s.battery_v, "%.2f"), s.lost)
+        "/".join(_f(w, "%.0f") for w in s.wings), _f(s.battery_v, "%.2f"),
+        _pct(s.load_pct), _f(s.worst_slot_ms, "%.1f").strip(), s.lost)

@@ -42,9 +42,9 @@ def mp(board):
     return board
 
 
-def test_the_loop_runs_seven_tasks_and_the_estimator_settles_at_rest(mp):
+def test_the_loop_runs_eight_tasks_and_the_estimator_settles_at_rest(mp):
     bench.build(mp, PARAMS)
-    assert mp.eval("v.sched.names") == ["nav", "link", "depth", "control", "leak", "battery", "params"]
+    assert mp.eval("v.sched.names") == ["nav", "link", "depth", "control", "leak", "battery", "params", "gc"]
     mp.exec("v.sched.run(1200)")
     assert mp.eval("v.nav.valid(0x30)") is True            # attitude and depth valid
     # 101800 Pa: the port 48.4 mm deep, the centre of buoyancy 23.1 mm above it

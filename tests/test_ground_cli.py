@@ -55,6 +55,19 @@ def test_arm_mode_disarm(vehicle):
     assert (r.returncode, r.stdout.strip()) == (0, "disarmed")
 
 
+def test_status_and_watch_show_the_loop_load_and_the_worst_slot(vehicle):
+    # the demo vehicle, held still, reports a load of 431 permille and a worst slot of 6800 us
+    r = ground("status", "--master", vehicle.device, "--json")
+    assert r.returncode == 0, r.stderr
+    status = json.loads(r.stdout)
+    assert (status["load_pct"], status["worst_slot_ms"]) == (43.1, 6.8)
+    r = ground("status", "--master", vehicle.device)
+    assert "loop      load 43.1%   worst slot 6.8 ms" in r.stdout.splitlines(), r.stdout
+    r = ground("watch", "--master", vehicle.device, "--duration", "2.5")
+    assert r.returncode == 0, r.stderr
+    assert " load 43.1% worst slot 6.8 ms " in r.stdout.splitlines()[-1], r.stdout
+
+
 def test_param_get_set_and_refusals(vehicle):
     r = ground("param", "get", "FS_GCS_TIMEOUT", "--master", vehicle.device)
     assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 5"), r.stderr

@@ -13,12 +13,15 @@ from pymavlink.dialects.v20 import common as pm
 
 from roboray.shared import modes as M
 from roboray.shared import param_defs
+from roboray.shared.mavlink import messages
 from roboray.shared.mavlink.endpoint import Endpoint
 from roboray.shared.mavlink.signing import Signing, key_from_passphrase
 from roboray.shared.mavlink.telemetry import Telemetry
 from roboray.shared.params import ParamTable
 
 KEY = key_from_passphrase("endpoint")
+#: What carries SLOT_MAX: NAMED_VALUE_INT once the generated table has it.
+SLOT_TYPE = "NAMED_VALUE_INT" if hasattr(messages, "MSG_NAMED_VALUE_INT") else "NAMED_VALUE_FLOAT"
 
 
 class Pipe:
@@ -174,6 +177,40 @@ def test_telemetry_carries_the_state_the_firmware_fills():
     named = {m.name: m.value for m in msgs if m.get_type() == "NAMED_VALUE_FLOAT"}
     assert named["depth_m"] == pytest.approx(3.4) and named["wing3_deg"] == pytest.approx(33.0)
     assert last["SYS_STATUS"].voltage_battery == 7400 and last["SYS_STATUS"].errors_count1 == 5
+
+
+def test_status_carries_the_loop_load_and_the_worst_slot_since_the_last_report():
+    g = Ground()
+    v = Vehicle(g)
+    v.tel.load_permille = 431
+    msgs = []
+    for _ in range(150):
+        v.step()
+        msgs += g.received()
+    # no slot times from a loop yet: SYS_STATUS goes out, SLOT_MAX does not
+    assert [m.load for m in msgs if m.get_type() == "SYS_STATUS"] == [431, 431]
+    assert not [m for m in msgs if getattr(m, "name", None) == "SLOT_MAX"]
+    slots = []
+
+    def run(ms, slot_us):
+        # the firmware raises slot_max_us every slot (firmware/link.py)
+        for _ in range(ms // 10):
+            if slot_us > v.ep.slot_max_us:
+                v.ep.slot_max_us = slot_us
+            v.step()
+            for m in g.received():
+                if m.get_type() == SLOT_TYPE and m.name == "SLOT_MAX":
+                    slots.append((m.name, m.value, m.time_boot_ms))
+                elif m.get_type() == "SYS_STATUS":
+                    slots.append(("load", m.load, v.now))
+
+    run(1000, 4100)
+    run(10, 9800)          # one long slot...
+    run(2000, 4200)        # ...shows in the next report only
+    assert [s[:2] for s in slots] == [("load", 431), ("SLOT_MAX", 4100), ("load", 431), ("SLOT_MAX", 9800),
+                                      ("load", 431), ("SLOT_MAX", 4200)]
+    assert [s[2] for s in slots] == [2010, 2010, 3010, 3010, 4010, 4010]   # with SYS_STATUS, 1 Hz
+    assert v.ep.slot_max_us == 4200          # raised again since the last report
 
 
 def test_parameter_protocol_list_read_and_set():

@@ -31,6 +31,14 @@ Handled:
   the radio is kept in ``radio`` ([rssi, remrssi, txbuf, noise, remnoise,
   rxerrors, fixed]).
 
+Loop load: SYS_STATUS ``load`` is ``Telemetry.load_permille``, the
+scheduler's share of each slot spent working in permille (what ArduPilot
+sends: its scheduler's load average x 1000). With it (the STATUS stream,
+``SR_STATUS``, 1 Hz) goes NAMED_VALUE_INT ``SLOT_MAX`` (NAMED_VALUE_FLOAT
+while the generated message table lacks the former): the longest slot in
+microseconds since the previous report, from ``slot_max_us``, which the
+firmware raises every slot and the report starts over.
+
 Signing: when ``signing`` has a key, every frame we send is signed, and
 every incoming frame must carry a valid, fresh signature, except
 RADIO_STATUS, which the radio itself inserts unsigned (MAVLink's rule);
@@ -75,6 +83,11 @@ _N_STREAMS = const(6)
 
 _WING_NAMES = (b"wing1_deg", b"wing2_deg", b"wing3_deg", b"wing4_deg")
 _DEPTH_NAME = b"depth_m"
+_SLOT_NAME = b"SLOT_MAX"          # longest loop slot (us) since the last report
+# SLOT_MAX goes as NAMED_VALUE_INT once the generated table has it (tools/mavgen.py
+# MESSAGES); until then as NAMED_VALUE_FLOAT, which carries the microseconds exactly too.
+_MSG_SLOT = getattr(msg, "MSG_NAMED_VALUE_INT", msg.MSG_NAMED_VALUE_FLOAT)
+_SLOT_FMT = getattr(msg, "NAMED_VALUE_INT_FMT", msg.NAMED_VALUE_FLOAT_FMT)
 
 _REASON_REBOOT_ARMED = "reboot refused: disarm first"
 _REASON_BAD_MODE_FLAGS = "DO_SET_MODE needs MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"
@@ -172,6 +185,10 @@ class Endpoint:
         self.reboot_requested = False
         self.radio = array("H", [0] * 7)
         self.radio_count = 0
+        #: Longest main-loop slot (us) since the last status report, -1: none
+        #: yet. The firmware raises it every slot; the STATUS stream sends it
+        #: (NAMED_VALUE_INT ``SLOT_MAX``) and starts it over.
+        self.slot_max_us = -1
         # counters
         self.rejected = 0
         self.handled = 0
@@ -526,6 +543,11 @@ class Endpoint:
             self._send(msg.MSG_SYS_STATUS)
             struct.pack_into(msg.SYSTEM_TIME_FMT, b, o, 0, now)
             self._send(msg.MSG_SYSTEM_TIME)
+            slot = self.slot_max_us
+            if slot >= 0:
+                struct.pack_into(_SLOT_FMT, b, o, now, slot, _SLOT_NAME)
+                self._send(_MSG_SLOT)
+                self.slot_max_us = -1
 
 
 def _clamp16(x):

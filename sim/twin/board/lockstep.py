@@ -10,10 +10,13 @@ Lockstep. Time moves only when the firmware sleeps (``vclock``); the hook
 sees every advance. At each frame boundary (every ``frame_us`` of board
 time, 20 ms: one servo frame) it makes one ``hostlink.request``:
 
-- request: ``"<p1> <p2> <p3> <p4> <mode> <failsafes> <hex>"``: the four
-  servo pulses (ns, as the PWM outputs show them now), the firmware's mode
-  and active failsafe bits (for the twin's record; -1 when no application
-  runs) and the bytes the radio UART sent since the last frame;
+- request: ``"<p1> <p2> <p3> <p4> <mode> <failsafes> <hex> <times>"``: the
+  four servo pulses (ns, as the PWM outputs show them now), the firmware's
+  mode and active failsafe bits (for the twin's record; -1 when no
+  application runs), the bytes the radio UART sent since the last frame,
+  and the hex of the board-time records since the last frame
+  (``boardtime.py``: every task call, collection and slot, in us; empty
+  when code is free);
 - reply (the twin sent it after the previous request, so it is waiting
   in the pipe: ``runner.py`` runs the world one frame ahead):
   ``"<rows> <hex> <events>"``. ``rows`` is the hex of little-endian
@@ -52,7 +55,7 @@ import time
 
 from roboray.firmware import app
 from roboray.firmware.param_store import Files
-from roboray.sim.twin.board import vclock
+from roboray.sim.twin.board import boardtime, vclock
 from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice
 from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice
 from roboray.sim.twin.board.ms5837_device import MS5837Device
@@ -72,7 +75,7 @@ class Stop(BaseException):
 class Lockstep:
     """The clock hook and the devices; see the module docstring."""
 
-    def __init__(self, frame_us=20000, step_us=10000, divider=3.0):
+    def __init__(self, frame_us=20000, step_us=10000, divider=3.0, board_time=None):
         if frame_us % step_us:
             raise ValueError("frame_us %d is not a multiple of step_us %d" % (frame_us, step_us))
         t = machine.twin
@@ -84,7 +87,9 @@ class Lockstep:
         self.uart = t.uart(UART_ID)
         self.step_us = step_us
         self.divider = divider
-        self.files = PowerCutFiles(Files(), 0)
+        #: the board's compute time (``boardtime.BoardTime``), or None: free code
+        self.bt = board_time
+        self.files = self.new_files()
         self._acc = 0
         self._steps = []
         self._k = 0
@@ -96,6 +101,7 @@ class Lockstep:
         self.power_cuts = 0
         self.crashes = 0
         self.overruns = 0
+        self.stalls = 0
         self.max_loop_us = 0
         self.skipped = 0
         self.task_errors = 0
@@ -105,6 +111,14 @@ class Lockstep:
         self.request_us = 0
         self.board_us = 0
         self._w_end = 0
+
+    def new_files(self):
+        """The board's file system, fresh after a power cut; its flash
+        writes stall the board when code takes time."""
+        f = PowerCutFiles(Files(), 0)
+        if self.bt is not None:
+            f.flash = self.bt.flash
+        return f
 
     # ------------------------------------------------------------- the hook
     def hook(self, dt):
@@ -161,11 +175,13 @@ class Lockstep:
             mode = v.modes.mode
             active = v.failsafes.active
         sent = self.uart.take()
+        times = self.bt.take_records() if self.bt is not None else b""
         w0 = vclock.wall_us()
         pulse = t._pulse  # what t.pulse_ns(pin) returns, without four calls
-        text = hostlink.request("%d %d %d %d %d %d %s" % (
+        text = hostlink.request("%d %d %d %d %d %d %s %s" % (
             pulse[SERVO_PINS[0]], pulse[SERVO_PINS[1]], pulse[SERVO_PINS[2]],
-            pulse[SERVO_PINS[3]], mode, active, binascii.hexlify(sent).decode() if sent else ""))
+            pulse[SERVO_PINS[3]], mode, active, binascii.hexlify(sent).decode() if sent else "",
+            binascii.hexlify(times).decode() if times else ""))
         w1 = vclock.wall_us()
         self.request_us += vclock.ticks_diff(w1, w0)
         if self.frames:
@@ -206,6 +222,7 @@ class Lockstep:
             return
         s = v.sched
         self.overruns += s.overruns
+        self.stalls += s.stalls
         self.skipped += s.skipped
         if s.max_loop_us > self.max_loop_us:
             self.max_loop_us = s.max_loop_us
@@ -216,9 +233,13 @@ class Lockstep:
         self.lives.append([s.cycles, s.overruns, s.max_loop_us, errors])
 
     def report(self):
+        bt = self.bt
         return {"frames": self.frames, "resets": self.resets, "power_cuts": self.power_cuts,
+                "task_names": bt.names if bt is not None else [],
+                "records_lost": bt.lost if bt is not None else 0,
+                "flash_stall_us": bt.flash_us if bt is not None else 0,
                 "crashes": self.crashes,
-                "overruns": self.overruns, "skipped": self.skipped, "max_loop_us": self.max_loop_us,
+                "overruns": self.overruns, "stalls": self.stalls, "skipped": self.skipped, "max_loop_us": self.max_loop_us,
                 "task_errors": self.task_errors, "lives": self.lives,
                 "request_us": self.request_us, "board_us": self.board_us}
 
@@ -232,11 +253,40 @@ def _print_exception(e):
         traceback.print_exception(type(e), e, e.__traceback__, file=sys.stdout)
 
 
-def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, board=None):
-    """Run the firmware in lockstep until the world says stop; the report."""
-    ls = Lockstep(frame_us, step_us, divider)
+def _board_time(config):
+    """``boardtime.BoardTime`` from the twin's ``board_time`` settings, the
+    emulation bracketed on the emulated RP2350, and the scheduler
+    instrumented as each life's loop starts."""
+    if not config:
+        return None
+    bt = boardtime.BoardTime(config["source"], config.get("model"), config.get("cpu_mhz", boardtime.REF_MHZ),
+                             config.get("ps_per_insn"))
+    if bt.source == "emu":
+        boardtime.bracket_emulation(machine, bt)
+    from roboray.firmware.scheduler import Scheduler
+    run_loop = Scheduler.run
+
+    def run_instrumented(sched, cycles=-1):
+        v = app.vehicle
+        bt.instrument(sched, v.modes if v is not None else None)
+        return run_loop(sched, cycles)
+
+    Scheduler.run = run_instrumented
+    return bt
+
+
+def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, board=None, board_time=None):
+    """Run the firmware in lockstep until the world says stop; the report.
+
+    ``board_time``: None (code is free: time moves only when the firmware
+    sleeps) or ``{"source": "emu"|"model", "model": {...}, "cpu_mhz": 150,
+    "ps_per_insn": N}`` (``boardtime.py``)."""
+    bt = _board_time(board_time)
+    ls = Lockstep(frame_us, step_us, divider, bt)
     ls.boundary()      # the world's inputs at time 0, before anything runs
     vclock.set_hook(ls.hook)
+    if bt is not None:
+        bt.start()
     try:
         while True:
             app.vehicle = None
@@ -270,12 +320,14 @@ def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, bo
                 ls.life_ended()
                 ls.power_cuts += 1
                 ls.twin.power_cycle(machine.PWRON_RESET)
-                ls.files = PowerCutFiles(Files(), 0)
+                ls.files = ls.new_files()
                 ls.cost_us = 0
                 vclock.set_tick_cost_us(0)
     except Stop:
         ls.life_ended()
     finally:
+        if bt is not None:
+            bt.stop()
         vclock.set_hook(None)
         vclock.set_tick_cost_us(0)
     report = ls.report()

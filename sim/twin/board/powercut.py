@@ -27,6 +27,8 @@ class _File:
 
     def write(self, data):
         owner = self._owner
+        if owner.flash is not None:
+            owner.flash("write", len(data))
         if owner.step():
             self._f.write(data[:len(data) // 2])
             self._f.close()
@@ -42,6 +44,8 @@ class _File:
         if owner.dead:
             self._f.close()  # the host file; the board is already off
             raise PowerCut("power is off")
+        if owner.flash is not None:
+            owner.flash("close")
         if owner.step():
             self._f.close()
             raise PowerCut("power cut closing the file")
@@ -56,6 +60,9 @@ class PowerCutFiles:
         self.cut_at = cut_at
         self.steps = 0
         self.dead = False
+        #: ``flash(kind, nbytes=0)``: charges each flash-changing step's
+        #: stall to the board's time (``boardtime.BoardTime.flash``), or None.
+        self.flash = None
 
     def alive(self):
         if self.dead:
@@ -73,6 +80,8 @@ class PowerCutFiles:
     def open(self, path, mode):
         if "w" in mode or "a" in mode:
             f = self._files.open(path, mode)  # truncated even if the cut comes now
+            if self.flash is not None:
+                self.flash("open")
             if self.step():
                 f.close()
                 raise PowerCut("power cut opening %s" % path)
@@ -81,11 +90,15 @@ class PowerCutFiles:
         return self._files.open(path, mode)
 
     def rename(self, old, new):
+        if self.flash is not None:
+            self.flash("rename")
         if self.step():
             raise PowerCut("power cut before renaming %s" % old)
         self._files.rename(old, new)
 
     def remove(self, path):
+        if self.flash is not None:
+            self.flash("remove")
         if self.step():
             raise PowerCut("power cut before removing %s" % path)
         self._files.remove(path)

@@ -23,6 +23,11 @@ Twin side:
 - ``set_tick_cost_us(n)``: every ``ticks_us``/``ticks_ms``/``ticks_cpu`` call
   also advances time by ``n`` us, so a loop that polls the clock without
   sleeping still makes progress (0, the default, is free code).
+- ``set_cpu(fn)``: the board's compute time: ``fn()`` returns the
+  microseconds of work the board's CPU has done so far (wrapping at 2**30);
+  every clock reading first moves time on by the work done since the last
+  one, so code takes time as on the chip (``boardtime.py``: the emulated
+  RP2350's instruction count, or the calibrated model). None: code is free;
 - ``elapsed_us()``: simulated time since ``reset``, not wrapped;
 - ``wall_us()``: the host's real clock in microseconds (wrapping as its
   ticks do), for the twin's measurements of its own speed;
@@ -69,6 +74,8 @@ _s_frac = 0      # microseconds into the current second
 _elapsed_s = 0   # whole seconds since reset
 _hook = None
 tick_cost_us = 0
+_cpu = None      # the board's compute clock (set_cpu), or None: code is free
+_cpu_last = 0    # its reading when time last caught up with it
 
 
 def reset(start_us=0, epoch_s=EPOCH_S):
@@ -86,6 +93,26 @@ def set_hook(fn):
     """Install ``fn(dt_us)``, called after every advance of time (None removes it)."""
     global _hook
     _hook = fn
+
+
+def set_cpu(fn):
+    """Charge the board's compute time: ``fn()`` -> work done so far, us
+    (wrapping at 2**30); None: code costs no time."""
+    global _cpu, _cpu_last
+    _cpu = fn
+    _cpu_last = fn() if fn is not None else 0
+
+
+def catch_up():
+    """Move time on by the board's work since the last reading (``set_cpu``)."""
+    global _cpu_last
+    if _cpu is None:
+        return
+    b = _cpu()
+    d = (b - _cpu_last) & _TICKS_MAX
+    if d:
+        _cpu_last = b   # first: the hook may read the clock again
+        sleep_us(d)
 
 
 def set_tick_cost_us(us):
@@ -119,18 +146,24 @@ wall_us = getattr(_host_time, "ticks_us", _perf_counter_us)
 
 # ----------------------------------------------------------- board's API
 def ticks_us():
+    if _cpu is not None:
+        catch_up()
     if tick_cost_us:
         advance(tick_cost_us)
     return now_us
 
 
 def ticks_ms():
+    if _cpu is not None:
+        catch_up()
     if tick_cost_us:
         advance(tick_cost_us)
     return _ms
 
 
 def ticks_cpu():
+    if _cpu is not None:
+        catch_up()
     if tick_cost_us:
         advance(tick_cost_us)
     return now_us

@@ -1,0 +1,280 @@
+"""``roboray-sim bench board``: the firmware's time on the emulated RP2350.
+
+Every figure is counted on the emulated board (``tools/rp2350_emu/``:
+QEMU, MicroPython for the Cortex-M33 with single-precision floats) and
+turned into RP2350 microseconds by the calibration against published
+Pico 2 timings (``tools/rp2350_emu/calibration.py``):
+
+- ``tasks``: each task's mean, p99 and max a call, from the twin's
+  target-landing on the emulated board (compute, I2C bus time and flash
+  stalls charged to the virtual clock as the chip would spend them);
+- ``slot_p50_ms``, ``slot_p99_ms``, ``slot_max_ms``: a slot's work
+  including its collection; ``gc_ms``: one ``gc.collect()`` at the
+  firmware's live heap, the firmware built on the emulated board without
+  the world; ``heap_live_bytes``, ``heap_size_bytes``;
+- ``float_impl`` and ``word_bits`` as the board reports them;
+- ``calibration``: the published figures, their sources, the cost of an
+  instruction and its uncertainty.
+
+``--write-model`` writes the per-task, per-mode costs the default twin
+charges (``sim/twin/board_time_model.json``) from runs of target-landing
+and velocity.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from roboray.tools.cli import CliError, add_json, command, emit
+
+#: Firmware built on the emulated board without the world: the live heap
+#: and one collection. ``emuboard.insns`` around ``gc.collect()``.
+_GC_PROBE = """
+import gc, sys, json, emuboard
+gc.collect()
+base = gc.mem_alloc()
+%(prelude)s
+from roboray.sim.twin.board import vclock
+from roboray.sim.twin.board.ms5837_device import MS5837Device
+from roboray.sim.twin.board.lsm6dsox_device import LSM6DSOXDevice
+from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice
+gc.collect()
+emulation = gc.mem_alloc() - base
+i0 = emuboard.insns()
+gc.collect()
+emulation_gc = emuboard.insns() - i0
+%(setup)s
+%(build)s
+v.sched.run(300)
+out = {"emulation_bytes": emulation, "base_bytes": base, "emulation_gc_insns": emulation_gc}
+samples = []
+for k in range(5):
+    v.sched.run(20)
+    i0 = emuboard.insns()
+    gc.collect()
+    samples.append(emuboard.insns() - i0)
+out["gc_insns"] = samples
+out["live_bytes"] = gc.mem_alloc()
+out["free_bytes"] = gc.mem_free()
+out["float_single"] = (1.0 + 1e-8 == 1.0)
+out["maxsize"] = sys.maxsize
+print("RESULT " + json.dumps(out))
+"""
+
+
+def _probe(heap_bytes: int) -> dict:
+    from roboray.sim import twin
+    from roboray.sim.twin import bench
+    from roboray.tools.micropython import rp2350_emu
+
+    code = _GC_PROBE % {"prelude": twin.PRELUDE, "setup": bench.SETUP.replace("import gc, machine, time", "import machine, time"),
+                        "build": bench.BUILD % "bench_params.bin"}
+    with tempfile.TemporaryDirectory(prefix="roboray-board-") as d:
+        lib = rp2350_emu.install_lib(Path(d) / "lib")
+        status, out = rp2350_emu.run(code, cwd=d, heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
+                                     path=(str(lib),), timeout=600)
+    for line in out.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise CliError("the emulated board did not finish the heap probe (exit %d): %s" % (status, out.strip()[-500:]))
+
+
+#: Counts one benchmark's work: compiled first, then run between two readings.
+_COUNT = """
+import emuboard, gc
+src = open(%(path)r).read()
+code = compile(src, "bench", "exec")
+del src
+gc.collect()
+i0 = emuboard.insns()
+exec(code, {"__name__": "bench"})
+print("COUNT %%d" %% (emuboard.insns() - i0))
+"""
+
+
+def calibrate() -> dict:
+    """Count the published benchmarks' work on the emulated board (each run
+    at its published size less the same script with no work) and calibrate
+    (``tools/rp2350_emu/calibration.py``)."""
+    from roboray.tools.micropython import rp2350_emu
+    from roboray.tools.rp2350_emu import calibration
+
+    counts = {}
+    with tempfile.TemporaryDirectory(prefix="roboray-cal-") as d:
+        for name, bench in calibration.BENCHMARKS.items():
+            if not bench.verified:
+                continue
+            got = []
+            for n in (bench.iterations, 0):
+                path = Path(d) / ("%s_%d.py" % (name, n))
+                path.write_text(calibration.script(name, n))
+                status, out = rp2350_emu.run(_COUNT % {"path": str(path)}, cwd=d, timeout=600)
+                line = next((x for x in out.splitlines() if x.startswith("COUNT ")), None)
+                if status != 0 or line is None:
+                    raise CliError("benchmark %s failed on the emulated board (exit %d): %s"
+                                   % (name, status, out.strip()[-500:]))
+                got.append(int(line.split()[1]))
+            counts[name] = got[0] - got[1]
+    cal = calibration.calibrate(counts)
+    return {"ps_per_insn": round(cal["ps_per_insn"], 1), "cpi": round(cal["cpi"], 3),
+            "relative_uncertainty": round(cal["half_range_rel"], 3),
+            "std_rel": round(cal["std_rel"], 3) if cal["std_rel"] is not None else None,
+            "min_ps_per_insn": round(cal["min_ps_per_insn"], 1), "max_ps_per_insn": round(cal["max_ps_per_insn"], 1),
+            "method": cal["method"],
+            "per_benchmark": {n: {"instructions": b["instructions"], "ps_per_insn": round(b["ps_per_insn"], 1),
+                                  "figures": [{"label": f["label"], "published_s": f["published_s"],
+                                               "ps_per_insn": round(f["ps_per_insn"], 1), "url": f["url"],
+                                               "representative": f["representative"]} for f in b["figures"]]}
+                              for n, b in cal["benchmarks"].items()}}
+
+
+def _twin_run(scenario: str, cpu_mhz: float, seed: int = 0) -> tuple[dict, "object"]:
+    from roboray.sim.twin.runner import Options, Twin
+
+    twin = Twin(Options(scenario=scenario, seed=seed, interpreter="rp2350-emu", cpu_mhz=cpu_mhz))
+    report = twin.run()
+    return report, twin
+
+
+def model_from(runs: list) -> dict:
+    """Per task and mode, the mean cost a call (us at 150 MHz) from twins run
+    on the emulated board; modes a run did not visit take the nearest one's
+    (ATTITUDE: VELOCITY's cascade; FAILSAFE: PASSIVE's fixed wings)."""
+    from roboray.shared.modes import NAMES
+
+    sums: dict = {}
+    for report, twin in runs:
+        names = twin.board_report.get("task_names") or []
+        kind, mode, us = twin.times.records()
+        for i, name in enumerate(names):
+            for m in range(len(NAMES)):
+                sel = (kind == i) & (mode == m)
+                if sel.any():
+                    s = sums.setdefault(name, {}).setdefault(m, [0.0, 0])
+                    s[0] += float(us[sel].sum())
+                    s[1] += int(sel.sum())
+        gsel = kind == 16
+        s = sums.setdefault("__gc__", {}).setdefault(0, [0.0, 0])
+        s[0] += float(us[gsel].sum())
+        s[1] += int(gsel.sum())
+    fallback = {"DISARMED": ("PASSIVE",), "PASSIVE": ("DISARMED",), "ATTITUDE": ("VELOCITY", "TARGET"),
+                "VELOCITY": ("TARGET",), "TARGET": ("VELOCITY",), "FAILSAFE": ("PASSIVE", "DISARMED")}
+    tasks = {}
+    for name, by_mode in sums.items():
+        if name == "__gc__":
+            continue
+        costs = []
+        for m, mname in enumerate(NAMES):
+            cands = [m] + [NAMES.index(f) for f in fallback[mname]]
+            got = next((by_mode[c] for c in cands if c in by_mode and by_mode[c][1]), None)
+            if got is None:
+                got = [sum(v[0] for v in by_mode.values()), sum(v[1] for v in by_mode.values())]
+            costs.append(round(got[0] / max(got[1], 1), 1))
+        tasks[name] = costs
+    g = sums["__gc__"][0]
+    return {"tasks": tasks, "gc_us": round(g[0] / max(g[1], 1), 1), "modes": list(NAMES)}
+
+
+def do_bench_board(args: argparse.Namespace) -> None:
+    from roboray.sim.twin import timing
+    from roboray.tools.micropython import rp2350_emu
+    try:
+        rp2350_emu.require()
+    except RuntimeError as exc:
+        raise CliError(str(exc))
+    t0 = time.perf_counter()
+    sys.stderr.write("bench board: calibrating on the emulated RP2350...\n")
+    cal = calibrate()
+    if args.write_model:
+        # the calibration first: the twin runs below charge at its figure
+        timing.write_model({"calibration": cal}, partial=True)
+    sys.stderr.write("bench board: %.3f ns an instruction (+-%.0f%%); target-landing on the emulated board...\n"
+                     % (cal["ps_per_insn"] / 1000.0, 100 * cal["relative_uncertainty"]))
+    report, twin = _twin_run("target-landing", args.cpu_mhz)
+    runs = [(report, twin)]
+    bt = report["board_time"]
+    sys.stderr.write("bench board: the firmware's heap and one collection...\n")
+    probe = _probe(rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP)
+    ps = cal["ps_per_insn"] * timing.REF_MHZ / args.cpu_mhz
+    gc_us = [n * ps / 1e6 for n in probe["gc_insns"]]
+    result = {
+        "board": "emulated RP2350 (%s, QEMU mps3-an547, Cortex-M33 code, -icount)" % rp2350_emu.version(),
+        "cpu_mhz": args.cpu_mhz,
+        "scenario": "target-landing",
+        "landing_error_m": report.get("landing_error_m"),
+        "tasks": bt["tasks"],
+        "gc": bt["gc"],
+        "slot_p50_ms": bt.get("slot_p50_ms"),
+        "slot_p99_ms": bt.get("slot_p99_ms"),
+        "slot_max_ms": bt.get("slot_max_ms"),
+        "load_pct": bt.get("load_pct"),
+        "overruns": report["overruns"],
+        "skipped_slots": report["skipped_slots"],
+        "resets": report["resets"],
+        "flash_stalls": bt.get("flash_stalls"),
+        "flash_stall_ms": bt.get("flash_stall_ms"),
+        "gc_ms": round(float(np.median(gc_us)) / 1000.0, 3),
+        "heap_live_bytes": probe["live_bytes"] - probe["emulation_bytes"],
+        "heap_live_emulation_bytes": probe["emulation_bytes"],
+        "heap_size_bytes": rp2350_emu.PICO2_HEAP,
+        "heap_size_source": rp2350_emu.PICO2_HEAP_SOURCE,
+        "float_impl": "float" if probe["float_single"] else "double",
+        "word_bits": 32 if probe["maxsize"] == 2 ** 31 - 1 else 64,
+        "calibration": cal,
+        "seconds": None,
+    }
+    if args.write_model:
+        sys.stderr.write("bench board: velocity on the emulated board (the model's VELOCITY costs)...\n")
+        runs.append(_twin_run("velocity", timing.REF_MHZ))
+        model = model_from(runs)
+        model["calibration"] = cal
+        model["source"] = ("roboray-sim bench board --write-model: target-landing and velocity on the emulated "
+                           "RP2350 at 150 MHz")
+        path = timing.write_model(model)
+        result["model"] = str(path)
+    result["seconds"] = round(time.perf_counter() - t0, 1)
+
+    def text(r: dict) -> str:
+        lines = ["%s at %g MHz, %s (landing error %s m)" % (r["board"], r["cpu_mhz"], r["scenario"],
+                                                             r["landing_error_m"]),
+                 "   task        calls   mean us    p99 us    max us"]
+        for name, s in r["tasks"].items():
+            if s.get("calls"):
+                lines.append("   %-10s %6d %9.1f %9.1f %9d" % (name, s["calls"], s["mean_us"], s["p99_us"],
+                                                                  s["max_us"]))
+        g = r["gc"]
+        if g.get("calls"):
+            lines.append("   %-10s %6d %9.1f %9.1f %9d" % ("gc", g["calls"], g["mean_us"], g["p99_us"], g["max_us"]))
+        lines.append("slot p50 %s ms, p99 %s ms, max %s ms; load %s%%; %s overruns, %s skipped, %s resets" % (
+            r["slot_p50_ms"], r["slot_p99_ms"], r["slot_max_ms"], r["load_pct"], r["overruns"], r["skipped_slots"],
+            r["resets"]))
+        lines.append("one gc.collect() at the firmware's live heap: %.3f ms (live %d B + %d B emulated peripherals, "
+                     "heap %d B)" % (r["gc_ms"], r["heap_live_bytes"], r["heap_live_emulation_bytes"],
+                                     r["heap_size_bytes"]))
+        c = r["calibration"]
+        lines.append("calibration: %.3f ns an instruction at 150 MHz (CPI %.2f), +-%.0f%% (%s)" % (
+            c["ps_per_insn"] / 1000.0, c["cpi"], 100 * c["relative_uncertainty"],
+            ", ".join(c["per_benchmark"])))
+        if r.get("model"):
+            lines.append("wrote %s" % r["model"])
+        return "\n".join(lines)
+
+    emit(args, result, text)
+
+
+def register(sub, bench) -> None:
+    from roboray.sim.commands.sil import cpu_mhz
+
+    p = command(bench, "board", do_bench_board,
+                "the firmware's time on the emulated RP2350: tasks, slots, collector, heap, calibration")
+    p.add_argument("--cpu-mhz", type=cpu_mhz, default=150.0, help="the board's clock (default 150)")
+    p.add_argument("--write-model", action="store_true",
+                   help="also write the per-task costs the default twin charges (sim/twin/board_time_model.json)")
+    add_json(p)

@@ -1,0 +1,372 @@
+"""The board's compute time in the twin: counted on the emulated RP2350, or modelled.
+
+MicroPython code, loaded beside the firmware (``lockstep.py`` sets it up).
+Without it the virtual clock moves only when the firmware sleeps, so code
+is free and no loop can overrun. With it every clock reading first moves
+time on by the work the board's CPU did since the last one
+(``vclock.set_cpu``), so a task takes as long as it would on the chip, the
+sensors and the world move on meanwhile, and overruns, skipped slots and
+the watchdog behave as they will on the board.
+
+Two sources of that work, one interface:
+
+- ``"emu"``: the firmware runs on the emulated RP2350
+  (``tools/rp2350_emu/``, ``--interpreter rp2350-emu``), whose native
+  ``emuboard`` module counts the instructions the CPU executed and turns
+  them into microseconds at the calibrated cost per instruction. The
+  twin's own Python (the emulated peripherals, the virtual clock, the
+  lockstep) runs on the same CPU but is not the board's work: each entry
+  into it is bracketed by ``emuboard.exclude_begin/end`` so its
+  instructions are not charged. What the chip spends outside its CPU is
+  charged explicitly (``charge``): an I2C transfer's bus time, a flash
+  write's stall.
+- ``"model"``: any other interpreter. A deterministic model calibrated on
+  the emulated board (``sim/twin/board_time_model.json``, written by
+  ``roboray-sim bench board --write-model``) charges each task call its
+  mean cost on the chip in the vehicle's current mode, each collection
+  its cost at the firmware's live heap, and the same flash stalls.
+
+``--cpu-mhz`` scales the compute part (not bus time, not flash stalls).
+
+Every task call, collection and slot is recorded, ``(kind << 24) | (mode
+<< 21) | us`` (the vehicle's mode then; us capped at 2**21 - 1),
+into a buffer the lockstep sends to the host with its frame request
+(``take_records``): kinds 0..15 are the scheduler's tasks in the order
+added, ``GC`` a collection, ``SLOT`` a slot's work from its start to the
+end of its collection (the scheduler's own ``work``), ``FLASH`` a flash
+stall. The host turns them into per-task mean, p99 and max.
+"""
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+from roboray.sim.twin.board import vclock
+
+try:
+    import emuboard
+except ImportError:
+    emuboard = None
+
+GC = const(16)
+SLOT = const(17)
+FLASH = const(18)
+_MASK = const(0x3FFFFFFF)
+_US_MAX = const(0x1FFFFF)
+_RECORDS = const(512)
+#: The clock the model and the calibration refer to (RP2350 default).
+REF_MHZ = 150
+
+# Flash stalls. Writing or erasing the Pico 2's QSPI flash (Winbond
+# W25Q32RV class) suspends execution from flash for the whole operation;
+# MicroPython's littlefs on rp2 writes 4 kB blocks. Typical figures of the
+# W25Q32JV datasheet (rev. H, table 9.7): page program (256 B) 0.4 ms,
+# 4 kB sector erase 45 ms.
+PAGE_PROGRAM_US = 400
+SECTOR_ERASE_US = 45000
+PAGE_BYTES = 256
+SECTOR_BYTES = 4096
+#: littlefs appends a commit to a metadata pair and erases (compacts) the
+#: pair's other block when it fills: about every 16 commits of ~250 bytes.
+COMMITS_PER_ERASE = 16
+
+# I2C on the RP2350: the pico-sdk's blocking transfers spin until the bus is
+# done, so a transfer costs its bus time (9 bits a byte with the ACK, start
+# and stop) plus the driver's set-up, estimated at 5 us (a few hundred
+# instructions of machine_i2c and the SDK at 150 MHz).
+I2C_SETUP_US = 5
+
+
+class BoardTime:
+    """The board's compute clock and the recorder; see the module docstring.
+
+    ``source``: ``"emu"`` or ``"model"``; ``model``: the calibrated table
+    (dict) for ``"model"``; ``cpu_mhz``: the board's clock; ``ps_per_insn``:
+    the emulated board's calibrated cost of an instruction at ``REF_MHZ``.
+    """
+
+    def __init__(self, source, model=None, cpu_mhz=REF_MHZ, ps_per_insn=None):
+        if source not in ("emu", "model"):
+            raise ValueError("board time source %r: emu or model" % (source,))
+        if source == "emu" and emuboard is None:
+            raise ValueError("board time 'emu' needs the emulated RP2350 (no emuboard module here)")
+        if source == "model" and model is None:
+            raise ValueError("board time 'model' needs the calibrated model")
+        if not cpu_mhz > 0:
+            raise ValueError("cpu_mhz must be > 0, got %r" % (cpu_mhz,))
+        self.source = source
+        self.cpu_mhz = cpu_mhz
+        self.records = array("i", [0] * _RECORDS)
+        self.n = 0
+        self.lost = 0
+        self.names = []
+        self.busy = 0           # model: us of work so far, wrapping at 2**30
+        self.commits = 0
+        self.flash_us = 0
+        self._modes = None
+        if source == "emu":
+            ps = ps_per_insn if ps_per_insn else 6667
+            emuboard.config(int(ps * REF_MHZ / cpu_mhz + 0.5))
+            self.busy_us = emuboard.busy_us
+            self.charge = self._charge_emu
+        else:
+            scale = REF_MHZ / cpu_mhz
+            self._task_us = {}
+            for name, costs in model["tasks"].items():
+                self._task_us[name] = [int(c * scale + 0.5) for c in costs]
+            self._gc_us = int(model["gc_us"] * scale + 0.5)
+            self._costs = []
+            self.busy_us = self._busy_model
+            self.charge = self._charge_model
+
+    # ------------------------------------------------------------ the clock
+    def _busy_model(self):
+        return self.busy
+
+    def _charge_model(self, us):
+        self.busy = (self.busy + us) & _MASK
+
+    @staticmethod
+    def _charge_emu(us):
+        emuboard.charge_us(us)
+
+    def start(self):
+        """From now on code takes time (the firmware is about to run)."""
+        vclock.set_cpu(self.busy_us)
+
+    def stop(self):
+        vclock.set_cpu(None)
+
+    # ------------------------------------------------------------ records
+    def record(self, kind, us):
+        n = self.n
+        if n >= _RECORDS:
+            self.lost += 1
+            return
+        m = self._modes
+        mode = m.mode if m is not None else 0
+        self.records[n] = (kind << 24) | (mode << 21) | (us if us < _US_MAX else _US_MAX)
+        self.n = n + 1
+
+    def take_records(self):
+        """The records since the last call, as bytes (allocates: the twin's side)."""
+        n = self.n
+        self.n = 0
+        return bytes(memoryview(self.records)[:n]) if n else b""
+
+    # ------------------------------------------------------------ the loop
+    def instrument(self, sched, modes):
+        """Time every task and the collection of ``sched`` (and charge them,
+        for the model). Called as the loop starts; ``modes``: the vehicle's
+        ``Modes`` (the model's costs depend on the mode)."""
+        self._modes = modes
+        self.names = list(sched.names)
+        fns = sched._fns
+        emu = self.source == "emu"
+        for i in range(len(fns)):
+            if emu:
+                fns[i] = self._wrap_emu(i, fns[i])
+            else:
+                costs = self._task_us.get(sched.names[i])
+                if costs is None:
+                    raise ValueError("the board time model has no task %r: run "
+                                     "roboray-sim bench board --write-model" % sched.names[i])
+                fns[i] = self._wrap_model(i, fns[i], costs)
+        # the slot's end: its collection, or none (the application's "gc" task)
+        sched._collect = self._wrap_collect(sched._collect or _nothing, sched, emu,
+                                            sched._collect is not None)
+
+    def _wrap_emu(self, i, fn):
+        xb = emuboard.exclude_begin
+        xe = emuboard.exclude_end
+        busy = emuboard.busy_us
+        rec = self.record
+
+        def run():
+            xb()
+            b0 = busy()
+            xe()
+            try:
+                fn()
+            finally:
+                xb()
+                rec(i, (busy() - b0) & _MASK)
+                xe()
+        return run
+
+    def _wrap_model(self, i, fn, costs):
+        rec = self.record
+        bt = self
+
+        def run():
+            try:
+                fn()
+            finally:
+                c = costs[bt._modes.mode]
+                bt.busy = (bt.busy + c) & _MASK
+                rec(i, c)
+        return run
+
+    def _wrap_collect(self, collect, sched, emu, collects):
+        rec = self.record
+        bt = self
+        if not collects:
+            def run():
+                rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
+            return run
+        if emu:
+            xb = emuboard.exclude_begin
+            xe = emuboard.exclude_end
+            busy = emuboard.busy_us
+
+            def run():
+                xb()
+                b0 = busy()
+                xe()
+                collect()
+                xb()
+                try:
+                    rec(GC, (busy() - b0) & _MASK)
+                    # the clock reading may end the life (the watchdog bites)
+                    rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
+                finally:
+                    xe()
+        else:
+            gc_us = self._gc_us
+
+            def run():
+                collect()
+                bt.busy = (bt.busy + gc_us) & _MASK
+                rec(GC, gc_us)
+                rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
+        return run
+
+    # ------------------------------------------------------------ flash
+    def flash(self, kind, nbytes=0):
+        """Charge the stall of one flash-changing file operation:
+        ``"open"``, ``"write"`` (``nbytes``), ``"close"``, ``"rename"``,
+        ``"remove"`` (littlefs: a write programs pages and erases the
+        sectors it starts; the others commit metadata)."""
+        if kind == "write":
+            us = ((nbytes + PAGE_BYTES - 1) // PAGE_BYTES) * PAGE_PROGRAM_US
+            us += ((nbytes + SECTOR_BYTES - 1) // SECTOR_BYTES) * SECTOR_ERASE_US
+        else:
+            us = PAGE_PROGRAM_US
+            self.commits += 1
+            if self.commits % COMMITS_PER_ERASE == 0:
+                us += SECTOR_ERASE_US
+        self.flash_us += us
+        self.record(FLASH, us)
+        self.charge(us)
+
+    # ------------------------------------------------------------ I2C
+    @staticmethod
+    def i2c_us(freq, nbytes):
+        """Bus time of a transfer of ``nbytes`` (address bytes included) at ``freq`` Hz."""
+        return I2C_SETUP_US + ((nbytes * 9 + 2) * 1000000 + freq - 1) // freq
+
+
+def _nothing():
+    pass
+
+
+def bracket_emulation(machine, bt):
+    """On the emulated RP2350: the twin's ``machine`` and clock are the
+    board's peripherals and timer, not its firmware: exclude their Python
+    from the charged instructions, and charge the bus time of I2C transfers."""
+    xb = emuboard.exclude_begin
+    xe = emuboard.exclude_end
+
+    def bracket(f):
+        def call(*a, **kw):
+            xb()
+            try:
+                return f(*a, **kw)
+            finally:
+                xe()
+        return call
+
+    for name in ("ticks_us", "ticks_ms", "ticks_cpu", "sleep_us", "sleep_ms", "sleep", "time", "time_ns",
+                 "advance", "catch_up"):
+        setattr(vclock, name, bracket(getattr(vclock, name)))
+    for cls, names in ((machine.Pin, ("init", "value", "on", "off", "high", "low", "toggle")),
+                       (machine.PWM, ("init", "freq", "duty_u16", "duty_ns", "deinit")),
+                       (machine.UART, ("init", "any", "readinto", "read", "readline", "write", "txdone",
+                                       "flush")),
+                       (machine.ADC, ("read_u16",)),
+                       (machine.WDT, ("feed",)),
+                       (machine.I2C, ("scan", "writevto"))):
+        for name in names:
+            setattr(cls, name, bracket(getattr(cls, name)))
+    for name in ("reset_cause", "unique_id", "freq", "idle", "disable_irq", "enable_irq"):
+        setattr(machine, name, bracket(getattr(machine, name)))
+
+    charge = emuboard.charge_us
+    i2c_us = bt.i2c_us
+    I2C = machine.I2C
+    read_mem = I2C.readfrom_mem_into
+    read_mem_b = I2C.readfrom_mem
+    write_mem = I2C.writeto_mem
+    read_into = I2C.readfrom_into
+    read_b = I2C.readfrom
+    write = I2C.writeto
+
+    # addr + register, then addr again and the data (a repeated start)
+    def readfrom_mem_into(self, addr, memaddr, buf, addrsize=8):
+        xb()
+        try:
+            charge(i2c_us(self.freq, 3 + len(buf)))
+            read_mem(self, addr, memaddr, buf, addrsize)
+        finally:
+            xe()
+
+    def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
+        xb()
+        try:
+            charge(i2c_us(self.freq, 3 + nbytes))
+            return read_mem_b(self, addr, memaddr, nbytes, addrsize)
+        finally:
+            xe()
+
+    def writeto_mem(self, addr, memaddr, buf, addrsize=8):
+        xb()
+        try:
+            charge(i2c_us(self.freq, 2 + len(buf)))
+            write_mem(self, addr, memaddr, buf, addrsize)
+        finally:
+            xe()
+
+    def readfrom_into(self, addr, buf, stop=True):
+        xb()
+        try:
+            charge(i2c_us(self.freq, 1 + len(buf)))
+            read_into(self, addr, buf, stop)
+        finally:
+            xe()
+
+    def readfrom(self, addr, nbytes, stop=True):
+        xb()
+        try:
+            charge(i2c_us(self.freq, 1 + nbytes))
+            return read_b(self, addr, nbytes, stop)
+        finally:
+            xe()
+
+    def writeto(self, addr, buf, stop=True):
+        xb()
+        try:
+            charge(i2c_us(self.freq, 1 + len(buf)))
+            return write(self, addr, buf, stop)
+        finally:
+            xe()
+
+    I2C.readfrom_mem_into = readfrom_mem_into
+    I2C.readfrom_mem = readfrom_mem
+    I2C.writeto_mem = writeto_mem
+    I2C.readfrom_into = readfrom_into
+    I2C.readfrom = readfrom
+    I2C.writeto = writeto

