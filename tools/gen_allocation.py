@@ -43,6 +43,7 @@ Run: ``python -m roboray.tools.gen_allocation [--check] [--out PATH] [--vehicle 
 from __future__ import annotations
 
 import math
+import struct
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
@@ -187,6 +188,28 @@ def _floats(values: np.ndarray, per_line: int, indent: str = "    ", digits: int
     return "\n".join(lines)
 
 
+def _table(name: str, values: np.ndarray, per_line: int, digits: int = 5) -> str:
+    """``NAME = array('f', b'...')``, the values in a comment above it.
+
+    A bytes constant, not a tuple of floats: the module's constants live as
+    long as the module, and a tuple of N floats is N boxed floats (16 bytes
+    each on the board) that every collection marks one by one; past 64 of
+    them MicroPython's mark stack overflows and the collector rescans the
+    whole heap (``docs/design/board-time.md``). A bytes constant is one
+    block with no pointers in it, and stays in flash when the firmware runs
+    from ROMFS. The values are rounded as printed, then stored as float32,
+    as ``array('f', (...))`` stored them."""
+    flat = np.ravel(values)
+    text = _floats(flat, per_line, indent="#   ", digits=digits)
+    raw = struct.pack("<%df" % len(flat), *[float(f) for f in _rounded(flat, digits)])
+    return "%s\n%s = array('f', %r)" % (text, name, raw)
+
+
+def _rounded(values: np.ndarray, digits: int) -> list:
+    # the printed numbers, read back: what the tuple literal held
+    return [float(("%.*f" % (digits, v))) if v == v else float("nan") for v in values]
+
+
 def render(inv: dict, fwd: dict, source: str) -> str:
     """The board module's text. Angles in radians (the board's unit),
     rounded to 1e-5 rad so a regeneration compares exactly."""
@@ -223,21 +246,12 @@ def render(inv: dict, fwd: dict, source: str) -> str:
         "FOLD_STEP = %r" % round((FOLDS_DEG[1] - FOLDS_DEG[0]) * rad, 7),
         "DIR_STEP = %r" % round((DIR_DEG[1] - DIR_DEG[0]) * rad, 7),
         "RATIO_STEP = %r" % (RATIO[1] - RATIO[0]),
-        "FOLD = array('f', (",
-        _floats(np.array(FOLDS_DEG) * rad, 8, digits=9),
-        "))",
-        "DESCENT = array('f', (",
-        _floats(np.round(inv["descent"], 5), 8),
-        "))",
-        "RATIO_MAX = array('f', (",
-        _floats(np.round(inv["ratio_max"], 5), nd),
-        "))",
-        "PSI = array('f', (",
-        _floats(np.round(inv["psi_deg"] * rad, 5), nr),
-        "))",
-        "AMP = array('f', (",
-        _floats(np.round(inv["amp_deg"] * rad, 5), nr),
-        "))",
+        "# Tables as float32 bytes (the values above each; see _table in the generator)",
+        _table("FOLD", np.array(FOLDS_DEG) * rad, 8, digits=9),
+        _table("DESCENT", np.round(inv["descent"], 5), 8),
+        _table("RATIO_MAX", np.round(inv["ratio_max"], 5), nd),
+        _table("PSI", np.round(inv["psi_deg"] * rad, 5), nr),
+        _table("AMP", np.round(inv["amp_deg"] * rad, 5), nr),
         "",
     ])
 

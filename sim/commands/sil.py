@@ -53,7 +53,7 @@ def _options(args: argparse.Namespace):
                    radio=args.radio, faults=list(args.fault or []), tlog=args.tlog, params=dict(args.param or []),
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
-                   board_time=getattr(args, "board_time", None))
+                   board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", False))
 
 
 def _twin(args: argparse.Namespace, **kwargs):
@@ -312,6 +312,9 @@ def add_board_time_options(p) -> None:
                    help="what code costs: auto (counted instructions on rp2350-emu, the model calibrated on it "
                         "elsewhere), model, or free (time moves only when the firmware sleeps); default: "
                         "counted on rp2350-emu, free elsewhere")
+    p.add_argument("--romfs", action="store_true",
+                   help="rp2350-emu: the board code in the Pico 2's ROMFS partition (bytecode run in place from "
+                        "flash, off the heap), as mpremote romfs deploy puts it, instead of /lib")
 
 
 def register(sub, bench) -> None:

@@ -112,6 +112,9 @@ class Options:
     #: A board time model to charge instead of the calibrated one (tests:
     #: ``{"tasks": {name: [us a call, by mode]}, "gc_us": us}``).
     board_model: Optional[dict] = None
+    #: rp2350-emu: the board code in the Pico 2's ROMFS partition (run in
+    #: place from flash, as ``mpremote romfs deploy`` puts it), not in /lib
+    romfs: bool = False
 
 
 # ---------------------------------------------------------------- boards
@@ -330,13 +333,22 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
 
     name = "rp2350-emu"
 
-    def __init__(self, on_request: Callable[[str], str]) -> None:
+    def __init__(self, on_request: Callable[[str], str], romfs: bool = False) -> None:
         from roboray.tools.micropython import rp2350_emu
 
         rp2350_emu.require()
         CPythonBoard.__init__(self, on_request)
-        self.version = "rp2350-emu %s" % rp2350_emu.version()
-        self._install_lib()
+        self.version = "rp2350-emu %s%s" % (rp2350_emu.version(), " (board code in ROMFS)" if romfs else "")
+        self.romfs: Optional[Path] = None
+        if romfs:
+            # /rom/lib/roboray/...: the same .mpy files, in the partition
+            src = self.dir / "romsrc"
+            self.lib = src / "lib"
+            rp2350_emu.install_lib(self.lib)
+            self.romfs = self.dir / "romfs.img"
+            self.romfs.write_bytes(rp2350_emu.make_romfs(src))
+        else:
+            self._install_lib()
 
     def _install_lib(self) -> None:
         from roboray.sim import twin
@@ -364,7 +376,7 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
         main = self.dir / "boot_twin.py"
         main.write_text(code)
         return rp2350_emu.command(str(main), heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
-                                  path=(str(self.lib),)), None
+                                  path=() if self.romfs else (str(self.lib),), romfs=self.romfs), None
 
 
 # ---------------------------------------------------------------- the twin
@@ -386,6 +398,8 @@ class Twin:
         self.options = options
         if options.interpreter not in INTERPRETERS:
             raise ValueError("--interpreter %r: %s" % (options.interpreter, ", ".join(INTERPRETERS)))
+        if options.romfs and options.interpreter != "rp2350-emu":
+            raise ValueError("--romfs: only the emulated RP2350 (--interpreter rp2350-emu) has a ROMFS partition")
         if options.board_time is None:
             options.board_time = "auto" if options.interpreter == "rp2350-emu" else "free"
         if options.board_time not in BOARD_TIMES:
@@ -637,7 +651,7 @@ class Twin:
         elif o.interpreter == "micropython-unix":
             self.board = MicroPythonUnixBoard(self._on_request)
         elif o.interpreter == "rp2350-emu":
-            self.board = RP2350EmuBoard(self._on_request)
+            self.board = RP2350EmuBoard(self._on_request, romfs=o.romfs)
         else:
             self.board = CPythonBoard(self._on_request)
         try:
