@@ -1,8 +1,12 @@
 """The ground link: the MAVLink endpoint on the radio, as one scheduler task.
 
-``Link.step()`` (every 10 ms) moves the radio's bytes (``Radio.service``),
-lets the endpoint (``shared/mavlink/endpoint.py``) handle what arrived and
-send what is due, and keeps the telemetry current (``firmware/telemetry.py``).
+``Link.step()`` (every 10 ms) pushes what the radio queued
+(``Radio.service``) and lets the endpoint (``shared/mavlink/endpoint.py``)
+handle what arrived and send what is due, a few frames a slot (the
+endpoint's budget). The telemetry (``firmware/telemetry.py``) is filled
+when the endpoint is about to send it: the attitude as it is then, the rest
+at most every ``_FILL_MS``. The endpoint's clock is the scheduler's stamp of
+the slot's start (``sched.now_ms``), so the task reads no clock itself.
 Running every slot, it sees every slot's time (the scheduler's
 ``last_loop_us``, the slot before this one) and keeps the longest in the
 endpoint's ``slot_max_us``, which the status report sends and starts over.
@@ -34,7 +38,8 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-_FILL_EVERY = const(10)     # link cycles between full telemetry refreshes (10 Hz)
+_FILL_MS = const(100)       # the rest of the telemetry is refreshed at most at 10 Hz
+_TICKS_MASK = const(0x3FFFFFFF)
 _VELOCITY_BITS = const(0x38)
 _FLUSH_TRIES = const(40)    # x 5 ms: time the COMMAND_ACK of a reboot gets to leave
 
@@ -89,30 +94,39 @@ class Link:
         self.store = store
         self._machine = machine
         self._clock = clock
-        self.ep = VehicleEndpoint(radio, params, modes, telemetry, on_fix=self._on_fix)
-        self._n = 0
+        self.ep = VehicleEndpoint(radio, params, modes, telemetry, on_fix=self._on_fix,
+                                  on_refresh=self._refresh)
+        self._filled_ms = -1
 
     def _on_fix(self, fix):
         self.nav.fix(fix[0], fix[1])
 
+    def _refresh(self, what):
+        # the endpoint is about to send telemetry: attitude (what 0) as it is
+        # now, the rest (1) if it is older than _FILL_MS
+        r = self.reporter
+        if what == 0:
+            r.fast()
+            return
+        now = self.ep.now_ms
+        if self._filled_ms < 0 or ((now - self._filled_ms) & _TICKS_MASK) >= _FILL_MS:
+            self._filled_ms = now
+            r.fill()
+
     def step(self):
         """Scheduler task (every 10 ms)."""
         self.radio.service()
-        r = self.reporter
-        r.fast()
-        n = self._n + 1
-        if n >= _FILL_EVERY:
-            n = 0
-            r.fill()
-        self._n = n
         ep = self.ep
-        sched = r.sched
+        sched = self.reporter.sched
         if sched is not None:
             # the previous slot's time: the status report sends the longest
             w = sched.last_loop_us
             if w > ep.slot_max_us:
                 ep.slot_max_us = w
-        ep.update(self._clock.ticks_ms())
+            # the slot's start, read by the scheduler: no clock call of our own
+            ep.update(sched.now_ms)
+        else:
+            ep.update(self._clock.ticks_ms())
         if ep.reboot_requested:
             ep.reboot_requested = False
             self.reboot()

@@ -4,17 +4,24 @@ A transparent serial radio (SiK-style at 57600 baud) moves about 5.7 kB/s
 each way. ``Radio`` sits between the UART (injected: ``machine.UART``)
 and the MAVLink endpoint, whose transport interface it implements:
 
-- ``service()`` (scheduler task) takes what the UART received into a ring
-  buffer and pushes queued bytes out as far as the UART accepts them;
-- ``read_into(buf) -> n`` hands over received bytes (0 when none);
-- ``write(buf) -> n`` queues a whole frame or, when the queue lacks room,
-  none of it (a half frame would only be garbage on the link).
+- ``read_into(buf) -> n`` hands over received bytes (0 when none), at most
+  ``len(buf)``: the caller's buffer is its per-call limit, and what it does
+  not take waits in the UART's own receive buffer (1024 bytes on the Pico 2,
+  ``boards/pico2.py``: 180 ms of a saturated link), which is the only copy;
+- ``write(buf) -> n`` hands a whole frame to the UART or, what the UART has
+  no room for, queues the rest; a frame that does not fit the queue is not
+  sent at all (a half frame would only be garbage on the link);
+- ``service()`` (scheduler task) pushes queued bytes out as far as the UART
+  accepts them: nothing to do, and no call, while the queue is empty.
 
 Reads ask the UART only for what ``any()`` says is there (``readinto(buf,
-n)``), and writes hand it contiguous parts of the queue (``write(buf, off,
-n)``), so neither waits for a character and nothing allocates. Counters:
-``rx_bytes``, ``tx_bytes``, ``rx_dropped`` (arrived with the ring full),
-``tx_dropped_frames`` and ``tx_dropped_bytes`` (did not fit the queue).
+n)``: asking for more would wait ``timeout_char`` for it), and writes hand
+it whole buffers or contiguous parts of the queue (``write(buf, off, n)``),
+so neither waits for a character and nothing allocates. ``bytes_per_s``:
+what the line carries (the endpoint paces what it sends by it). Counters:
+``rx_bytes``, ``tx_bytes``, ``tx_dropped_frames`` and ``tx_dropped_bytes``
+(did not fit the queue). Bytes that arrive with the UART's buffer full are
+lost in the UART, where the driver cannot count them.
 """
 
 try:
@@ -23,86 +30,49 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-_CHUNK = const(64)
+_MIN_QUEUE = const(64)
 
 
 class Radio:
-    """Ring-buffered, non-blocking byte transport over ``uart``."""
+    """Non-blocking byte transport over ``uart`` (``baudrate``: its line rate, 8N1)."""
 
-    def __init__(self, uart, rx_size=1024, tx_size=1024):
-        if rx_size < _CHUNK or tx_size < 64:
-            raise ValueError("radio buffers must hold at least 64 bytes")
+    def __init__(self, uart, tx_size=1024, baudrate=57600):
+        if tx_size < _MIN_QUEUE:
+            raise ValueError("the radio's queue must hold at least 64 bytes")
         self._uart = uart
-        self._rx = bytearray(rx_size)
-        self._rx_head = 0
-        self._rx_n = 0
         self._tx = bytearray(tx_size)
         self._tx_head = 0
         self._tx_n = 0
-        self._chunk = bytearray(_CHUNK)
+        #: Bytes a second the line carries (10 bits a byte: start, 8 data, stop).
+        self.bytes_per_s = baudrate // 10
         self.rx_bytes = 0
         self.tx_bytes = 0
-        self.rx_dropped = 0
         self.tx_dropped_frames = 0
         self.tx_dropped_bytes = 0
 
     # ----------------------------------------------------------- receiving
-    def _pull(self, avail):
-        # ``avail`` (> 0): what uart.any() said; the callers ask, so an idle
-        # line costs no call here
-        uart = self._uart
-        chunk = self._chunk
-        rx = self._rx
-        size = len(rx)
-        while avail > 0:
-            n = uart.readinto(chunk, avail if avail < _CHUNK else _CHUNK)
-            if not n:
-                break
-            avail -= n
-            self.rx_bytes += n
-            free = size - self._rx_n
-            if n > free:  # the ring is full: what does not fit is lost
-                self.rx_dropped += n - free
-                n = free
-            j = self._rx_head + self._rx_n
-            if j >= size:
-                j -= size
-            for i in range(n):
-                rx[j] = chunk[i]
-                j += 1
-                if j >= size:
-                    j = 0
-            self._rx_n += n
-
     def read_into(self, buf):
-        """Copy received bytes into ``buf``; how many (0 when none)."""
-        avail = self._uart.any()
-        if avail > 0:
-            self._pull(avail)
-        n = self._rx_n
-        if not n:
+        """Copy received bytes into ``buf`` (at most ``len(buf)``); how many (0 when none)."""
+        uart = self._uart
+        n = uart.any()
+        if n <= 0:
             return 0
         if n > len(buf):
             n = len(buf)
-        rx = self._rx
-        size = len(rx)
-        h = self._rx_head
-        for i in range(n):
-            buf[i] = rx[h]
-            h += 1
-            if h >= size:
-                h = 0
-        self._rx_head = h
-        self._rx_n -= n
+        n = uart.readinto(buf, n)
+        if not n:
+            return 0
+        self.rx_bytes += n
         return n
 
     def available(self):
-        """Bytes waiting in the receive ring."""
-        return self._rx_n
+        """Bytes waiting in the UART."""
+        return self._uart.any()
 
     # -------------------------------------------------------------- sending
     def write(self, buf):
-        """Queue all of ``buf`` and start sending; its length, or 0 if it did not fit."""
+        """Send all of ``buf`` (the UART takes what it can, the queue the rest);
+        its length, or 0 if it did not fit."""
         n = len(buf)
         tx = self._tx
         size = len(tx)
@@ -110,19 +80,30 @@ class Radio:
             self.tx_dropped_frames += 1
             self.tx_dropped_bytes += n
             return 0
+        k = 0
+        if not self._tx_n:
+            # nothing queued: straight to the UART, the queue only for what it has no room for
+            k = self._uart.write(buf)
+            if k is None:
+                k = 0
+            self.tx_bytes += k
+            if k >= n:
+                return n
         j = self._tx_head + self._tx_n
         if j >= size:
             j -= size
-        if j + n <= size:
-            tx[j:j + n] = buf  # one copy in C; no allocation for a whole buffer
+        m = n - k
+        if j + m <= size and k == 0:
+            tx[j:j + m] = buf  # one copy in C; no allocation for a whole buffer
         else:
-            for i in range(n):
+            for i in range(k, n):
                 if j >= size:
                     j -= size
                 tx[j] = buf[i]
                 j += 1
-        self._tx_n += n
-        self._push()
+        self._tx_n += m
+        if k == 0:
+            self._push()
         return n
 
     def _push(self):
@@ -142,13 +123,10 @@ class Radio:
                 return
 
     def queued(self):
-        """Bytes waiting to go out."""
+        """Bytes waiting to go out (in the queue, beyond what the UART holds)."""
         return self._tx_n
 
     def service(self):
-        """Scheduler task: move bytes both ways."""
-        avail = self._uart.any()
-        if avail > 0:
-            self._pull(avail)
+        """Scheduler task: push queued bytes out."""
         if self._tx_n:
             self._push()

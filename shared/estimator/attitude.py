@@ -147,6 +147,7 @@ class Attitude:
         self._inv_gate = 1.0 / heading_gate
         self._reacquire = reacquire
         self._max_bias = max_bias
+        self._min_bias = -max_bias
 
     # ---------------------------------------------------------------- set-up
     def set_attitude(self, w, x, y, z):
@@ -188,7 +189,6 @@ class Attitude:
         this one (m/s^2, body frame)."""
         b = self.bias
         e = self.e
-        q = self.q
         cx = gx - b[0]
         cy = gy - b[1]
         cz = gz - b[2]
@@ -200,18 +200,53 @@ class Attitude:
         hx = (cx + e[0]) * h
         hy = (cy + e[1]) * h
         hz = (cz + e[2]) * h
-        # q + 1/2 dt q (x) (0, omega): first order; |q|^2 grows by
-        # (|omega| dt / 2)^2 a step (6e-5 at 1.5 rad/s and 100 Hz), and
-        # normalize() runs at 10 Hz. Until then R from the unnormalised q is
-        # (1 + eps) R - eps I: a direction error of eps sin(tilt), < 0.01 deg.
-        quat.turn(q, hx, hy, hz)
+        # q + 1/2 dt q (x) (0, omega) (quat.turn), then R from q
+        # (quat.to_matrix), both written out here: a call costs as much as
+        # three or four float operations on the board. First order; |q|^2
+        # grows by (|omega| dt / 2)^2 a step (6e-5 at 1.5 rad/s and 100 Hz),
+        # and normalize() runs at 10 Hz. Until then R from the unnormalised
+        # q is (1 + eps) R - eps I: a direction error of eps sin(tilt),
+        # < 0.01 deg.
+        q = self.q
+        w = q[0]
+        x = q[1]
+        y = q[2]
+        z = q[3]
+        qw = w - hx * x - hy * y - hz * z
+        qx = x + hx * w + hz * y - hy * z
+        qy = y + hy * w - hz * x + hx * z
+        qz = z + hz * w + hy * x - hx * y
+        q[0] = qw
+        q[1] = qx
+        q[2] = qy
+        q[3] = qz
+        x2 = qx + qx
+        y2 = qy + qy
+        z2 = qz + qz
+        xx = qx * x2
+        yy = qy * y2
+        zz = qz * z2
+        xy = qx * y2
+        xz = qx * z2
+        yz = qy * z2
+        wx = qw * x2
+        wy = qw * y2
+        wz = qw * z2
         R = self.R
-        quat.to_matrix(R, q)
+        R[0] = 1.0 - (yy + zz)
+        R[1] = xy - wz
+        R[2] = xz + wy
+        R[3] = xy + wz
+        R[4] = 1.0 - (xx + zz)
+        R[5] = yz - wx
+        vx = xz - wy
+        vy = yz + wx
+        vz = 1.0 - (xx + yy)
+        R[6] = vx
+        R[7] = vy
+        R[8] = vz
         f2 = ax * ax + ay * ay + az * az
         if self._f2_lo < f2 < self._f2_hi:
-            vx = R[6]
-            vy = R[7]
-            vz = R[8]
             if self.fast:
                 ka = self._ka_fast
                 kb = self._kb_fast * dt
@@ -236,14 +271,15 @@ class Attitude:
                     return
             # b_dot = -ki e: e above is kp e, hence ki / kp
             mb = self._max_bias
+            nb = self._min_bias
             bx = b[0] - ex * kb
             by = b[1] - ey * kb
             bz = b[2] - ez * kb
-            if -mb < bx < mb:
+            if nb < bx < mb:
                 b[0] = bx
-            if -mb < by < mb:
+            if nb < by < mb:
                 b[1] = by
-            if -mb < bz < mb:
+            if nb < bz < mb:
                 b[2] = bz
         else:
             e[0] = 0.0
@@ -295,14 +331,15 @@ class Attitude:
         c = ki * dt * err
         b = self.bias
         mb = self._max_bias
+        nb = self._min_bias
         bx = b[0] + c * R[6]
         by = b[1] + c * R[7]
         bz = b[2] + c * R[8]
-        if -mb < bx < mb:
+        if nb < bx < mb:
             b[0] = bx
-        if -mb < by < mb:
+        if nb < by < mb:
             b[1] = by
-        if -mb < bz < mb:
+        if nb < bz < mb:
             b[2] = bz
         # q <- (1, 0, 0, -k dt err / 2) (x) q: a turn of -k dt err about NED down
         a = -0.5 * k * dt

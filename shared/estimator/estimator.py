@@ -60,6 +60,8 @@ _STALE_US = const(50000)
 _SETTLED_STEPS = const(100)    # 1 s of tilt error < 1 deg ...
 _SETTLED_MAG = const(100)      # ... and 100 heading samples averaging < 1 deg end the alignment
 _MAX_GAP_US = const(250000)
+#: Interval between magnetometer fusions, s (see ``Estimator``'s ``mag_period_s``).
+MAG_PERIOD_S = 0.04
 #: Degrees per radian over four wings: mean fold in degrees from the sum of angles.
 _QUARTER_DEG_PER_RAD = 14.32394487827058
 
@@ -94,6 +96,13 @@ class Estimator:
     servo_hold_s:
         The magnetometer is ignored this long after a wing command changes
         (servo current disturbs it).
+    mag_period_s:
+        Magnetometer fusion interval (default 25 Hz): newer samples wait in
+        the pending slot until it has passed. The heading loop's gains
+        (0.3 rad/s flying, 2 rad/s aligning) make it a 0.05-0.3 Hz filter,
+        so 25 Hz still averages 80 or more samples per time constant, and
+        a fusion (a fifth of a step's floats) is done a third as often as
+        when every 100 Hz step fused one.
     timeouts_us:
         (imu, mag, depth, fix) time-outs of the health flags.
     tilt_var_max, depth_var_max, position_var_max:
@@ -106,7 +115,7 @@ class Estimator:
                  timeouts_us=(_h.TIMEOUT_IMU_US, _h.TIMEOUT_MAG_US, _h.TIMEOUT_DEPTH_US, _h.TIMEOUT_FIX_US),
                  tilt_var_max=0.0012, depth_var_max=0.0025, position_var_max=0.0625,
                  tilt_psd=1e-6, tilt_ref_psd=5e-4, heading_psd=1e-6, heading_ref_psd=2e-4,
-                 heading_var_floor=7.6e-5):
+                 heading_var_floor=7.6e-5, mag_period_s=MAG_PERIOD_S):
         if fluid_density <= 0.0:
             raise ValueError("fluid_density %r must be > 0 kg/m^3" % fluid_density)
         if len(port_position) != 3 or len(imu_position) != 3:
@@ -156,6 +165,10 @@ class Estimator:
         self._lim_depth = timeouts_us[2] + _HALF
         self._lim_fix = timeouts_us[3] + _HALF
         self._lim_servo = int(servo_hold_s * 1e6) + _HALF
+        # a magnetometer sample is fused when it was measured at least 7/8 of
+        # ``mag_period_s`` after the last one fused (the firmware reads the
+        # chip once a period: its time stamps jitter by a fraction of a step)
+        self._lim_mag_period = int(mag_period_s * 875000.0) + _HALF
         self._tilt_var_max = tilt_var_max
         self._depth_var_max = depth_var_max
         self._pos_var_max = position_var_max
@@ -197,6 +210,8 @@ class Estimator:
         self._t_depth_ok = 0
         self._t_fix_ok = 0
         self._mag_seen = False
+        self._t_mag_job = 0
+        self._mag_wait = False
         self._depth_seen = False
         self._fix_seen = False
         self._aligned = False
@@ -305,14 +320,17 @@ class Estimator:
             self.job = JOB_HOUSEKEEPING
             self._housekeeping()
         elif p:
-            self._pending = 0
-            self.job = JOB_MAG
-            self._fuse_mag()
+            if self._mag_wait and ((self._t_m - self._t_mag_job + _HALF) & _TMAX) < self._lim_mag_period:
+                self.job = JOB_NONE    # one was fused less than a period ago: the newest waits
+            else:
+                self._pending = 0
+                self.job = JOB_MAG
+                self._fuse_mag()
         else:
             self.job = JOB_NONE
         self._t_imu = t_us
         att = self.att
-        if att.fast and ticks_diff(t_us, self._t_start) >= self._startup_us \
+        if att.fast and ((t_us - self._t_start + _HALF) & _TMAX) - _HALF >= self._startup_us \
                 and att.tilt_settled >= _SETTLED_STEPS \
                 and (att.heading_settled >= _SETTLED_MAG or not self._mag_seen):
             att.fast = False
@@ -320,9 +338,14 @@ class Estimator:
             dt = n * 1e-6
             att.predict(dt, gx, gy, gz, ax, ay, az)
             R = att.R
-            vert = self.vert
-            vert.predict(dt, R[6] * ax + R[7] * ay + R[8] * az + _G)
-            self.hor.predict(t_us, dt, R, vert.x[1])
+            # Vertical.predict, written out (a call costs as much as three
+            # or four float operations on the board)
+            x = self.vert.x
+            w = x[1]
+            x[0] = x[0] + w * dt
+            w = w + (R[6] * ax + R[7] * ay + R[8] * az + _G - x[2]) * dt
+            x[1] = w
+            self.hor.predict(t_us, dt, R, w)
         self._outputs()
 
     def check(self, t_us):
@@ -343,6 +366,8 @@ class Estimator:
 
     def _fuse_mag(self):
         t = self._t_m
+        self._t_mag_job = t
+        self._mag_wait = True
         # ticks_diff(t, _t_servo) < the servo hold, inline, as _health() compares
         if self._servo_seen and ((t - self._t_servo + _HALF) & _TMAX) < self._lim_servo:
             self._t_mag_ok = t

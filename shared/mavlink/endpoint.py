@@ -67,7 +67,8 @@ except ImportError:  # CPython
 
 _TICKS_MASK = const(0x3FFFFFFF)   # time.ticks_ms() wraps at 2**30 on MicroPython
 _TICKS_HALF = const(0x20000000)
-_PARAM_BURST = const(8)           # PARAM_VALUEs sent per update during a list
+_FRAMES_PER_UPDATE = const(1)     # frames handled or built per update (see Endpoint)
+_CREDIT_MAX = const(512000)       # line credit (milli-bytes): at most this much sent at once
 _HEARTBEAT_MS = const(1000)
 _FORCE_MAGIC = const(21196)       # MAV_CMD_COMPONENT_ARM_DISARM param2: force
 
@@ -80,6 +81,29 @@ _S_SERVO = const(3)
 _S_BATTERY = const(4)
 _S_STATUS = const(5)
 _N_STREAMS = const(6)
+
+# The frames the streams are made of, one bit each, in the order they go out
+# when several wait (the lowest bit first).
+_F_HEARTBEAT = const(0x1)
+_F_ATTITUDE = const(0x2)
+_F_ATTITUDE_Q = const(0x4)
+_F_STATUS = const(0x8)            # SYS_STATUS
+_F_TIME = const(0x10)             # SYSTEM_TIME
+_F_SLOT = const(0x20)             # SLOT_MAX
+_F_LOCAL_POS = const(0x40)
+_F_DEPTH = const(0x80)
+_F_TARGET = const(0x100)
+_F_PRESSURE = const(0x200)
+_F_IMU = const(0x400)
+_F_SERVO = const(0x800)
+_F_WING1 = const(0x1000)
+_F_WING2 = const(0x2000)
+_F_WING3 = const(0x4000)
+_F_WING4 = const(0x8000)
+_F_BATTERY = const(0x10000)
+_F_ATT_GROUP = const(0x6)         # what is a stream's attitude data (Reporter.fast)
+# each stream's frames, by stream number
+_STREAM_FRAMES = (0x6, 0x1C0, 0x600, 0xF800, 0x10000, 0x38)
 
 _WING_NAMES = (b"wing1_deg", b"wing2_deg", b"wing3_deg", b"wing4_deg")
 _DEPTH_NAME = b"depth_m"
@@ -136,11 +160,34 @@ class Endpoint:
     on_fix:
         Called with ``fix`` when an ATT_POS_MOCAP arrives.
     rx_size:
-        Bytes read from the transport per read.
+        Bytes read from the transport per update, at most: what arrives
+        faster waits in the transport (the radio's UART buffer).
+    on_refresh:
+        Called before telemetry goes out, at most once an update each:
+        ``on_refresh(0)`` before an attitude frame (``q``, ``rates``),
+        ``on_refresh(1)`` before any other stream frame, so that the firmware
+        fills ``telemetry`` only when it is about to be sent.
+    frames_per_update:
+        The update's budget, in frames handled or built: received frames
+        are handled first, each taking one, and their answers (always
+        sent) one each; what is left goes to the heartbeat and the stream
+        frames that are due, then to a parameter list's next values. What
+        does not fit waits for the next update: received bytes in the
+        transport, due frames in ``_pending`` (the streams keep their rates
+        on average). One a 10 ms update is ~100 frames a second, more than
+        the 57600-baud radio carries.
+
+    Pacing: with a transport that has ``bytes_per_s`` (the radio), stream
+    frames and a parameter list go out only while the line has carried what
+    was sent before (a credit of at most ``_CREDIT_MAX`` bytes), so nothing
+    is dropped for want of room; answers always go.
     """
 
     def __init__(self, transport, params, modes, telemetry, signing=None,
-                 compid=msg.MAV_COMP_ID_AUTOPILOT1, on_fix=None, rx_size=128):
+                 compid=msg.MAV_COMP_ID_AUTOPILOT1, on_fix=None, rx_size=128, on_refresh=None,
+                 frames_per_update=_FRAMES_PER_UPDATE):
+        if frames_per_update < 1:
+            raise ValueError("frames_per_update must be >= 1, got %r" % (frames_per_update,))
         self.transport = transport
         self.params = params
         self.modes = modes
@@ -164,6 +211,16 @@ class Endpoint:
         self.writer = Writer(self.sysid, compid, signing)
         self._rx = bytearray(rx_size)
         self._rxv = memoryview(self._rx)
+        self._rx_i = 0           # received bytes in _rx not yet parsed: _rx[_rx_i:_rx_n]
+        self._rx_n = 0
+        self.on_refresh = on_refresh
+        self._fresh = 0          # what on_refresh did this update (bit 0: attitude, bit 1: the rest)
+        self._frames = frames_per_update
+        self._budget = 0         # frames this update may still build
+        self._pending = 0        # _F_* frames due and not yet sent
+        self._bps = getattr(transport, "bytes_per_s", 0)
+        self._credit = _CREDIT_MAX   # milli-bytes the line can take now (with _bps)
+        self._credit_ms = -1
         self._period_ms = array("l", [0] * _N_STREAMS)
         self._due_ms = array("l", [0] * _N_STREAMS)
         self._params_version = -1
@@ -199,54 +256,101 @@ class Endpoint:
         """Read and handle what arrived, then send what is due."""
         now = now_ms & _TICKS_MASK
         self.now_ms = now
-        p = self.parser
-        while True:
+        self._budget = self._frames
+        self._fresh = 0
+        if self._bps:
+            # the line's credit: what it carried since the last update
+            if self._credit_ms >= 0:
+                c = self._credit + ((now - self._credit_ms) & _TICKS_MASK) * self._bps
+                self._credit = c if c < _CREDIT_MAX else _CREDIT_MAX
+            self._credit_ms = now
+        # what arrived: what is left of the last read, else one read; each
+        # frame handled takes a frame's share of the budget, its answers theirs
+        i = self._rx_i
+        n = self._rx_n
+        if i >= n:
+            i = 0
             n = self.transport.read_into(self._rx)
             if not n:
-                break
-            i = 0
+                n = 0
+        if i < n:
+            p = self.parser
+            rxv = self._rxv
             while i < n:
-                i = p.feed(self._rxv, i, n)
+                i = p.feed(rxv, i, n)
                 if p.ready:
+                    self._budget -= 1
                     self._handle(p)
-            if n < len(self._rx):
-                break
+                    if self._budget <= 0:
+                        break
+        self._rx_i = i
+        self._rx_n = n
         # then what is due
         if self.params.version != self._params_version:
             self._load_rates()
         # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
         if (now - self._wake) & _TICKS_MASK < _TICKS_HALF:
-            self._send_streams(now)
-        if self._param_next >= 0:
-            count = self.params.count()
-            for _ in range(_PARAM_BURST):
-                i = self._param_next
-                if i >= count:
-                    self._param_next = -1
-                    break
-                self.send_param(i)
-                self._param_next = i + 1
+            self._due_streams(now)
+        if self._budget > 0 and (self._credit > 0 or not self._bps):
+            if self._pending:
+                self._send_pending()
+            if self._param_next >= 0:
+                count = self.params.count()
+                while self._budget > 0 and (self._credit > 0 or not self._bps):
+                    i = self._param_next
+                    if i >= count:
+                        self._param_next = -1
+                        break
+                    self.send_param(i)
+                    self._param_next = i + 1
 
-    def _send_streams(self, now):
-        """The heartbeat and the streams that are due; sets ``_wake`` to the next due time."""
-        if ticks_diff(now, self._hb_due) >= 0:
-            self._hb_due = (now + _HEARTBEAT_MS) & _TICKS_MASK
-            self.send_heartbeat()
-        wake = self._hb_due
-        soonest = ticks_diff(wake, now)
+    def _due_streams(self, now):
+        """Mark the heartbeat and the streams that are due; sets ``_wake`` to the next due time."""
+        # ticks_diff written out: ((a - b + _TICKS_HALF) & _TICKS_MASK) - _TICKS_HALF
+        pend = self._pending
+        hb = self._hb_due
+        soonest = ((hb - now + _TICKS_HALF) & _TICKS_MASK) - _TICKS_HALF
+        if soonest <= 0:
+            hb = (now + _HEARTBEAT_MS) & _TICKS_MASK
+            self._hb_due = hb
+            soonest = _HEARTBEAT_MS
+            pend |= _F_HEARTBEAT
+        wake = hb
         due = self._due_ms
+        periods = self._period_ms
         for k in range(_N_STREAMS):
-            period = self._period_ms[k]
+            period = periods[k]
             if period > 0:
-                if ticks_diff(now, due[k]) >= 0:
-                    due[k] = (now + period) & _TICKS_MASK
-                    self._send_stream(k)
-                left = ticks_diff(due[k], now)
+                d = due[k]
+                left = ((d - now + _TICKS_HALF) & _TICKS_MASK) - _TICKS_HALF
+                if left <= 0:
+                    # the next one a period after this one was due, not after
+                    # now: a frame held back a slot or two keeps the average
+                    # rate; more than a period behind, from now
+                    left += period
+                    if left > 0:
+                        d = (d + period) & _TICKS_MASK
+                    else:
+                        d = (now + period) & _TICKS_MASK
+                        left = period
+                    due[k] = d
+                    pend |= _STREAM_FRAMES[k]
                 if left < soonest:
                     soonest = left
-                    wake = due[k]
+                    wake = d
+        self._pending = pend
         # (a due time half the tick period away reads as past: look every time then)
         self._wake = wake if soonest > 0 else now
+
+    def _send_pending(self):
+        """Frames that wait, the lowest bit first, while the update's budget and the line allow."""
+        pend = self._pending
+        bps = self._bps
+        while pend and self._budget > 0 and (self._credit > 0 or not bps):
+            f = pend & -pend
+            pend ^= f
+            self._pending = pend
+            self._send_frame(f)
 
     def _load_rates(self):
         self._params_version = self.params.version
@@ -256,8 +360,12 @@ class Endpoint:
         self._wake = self.now_ms
 
     def _send(self, msgid):
-        n = self.writer.finish(msgid)
-        self.transport.write(self.writer.view(n))
+        w = self.writer
+        n = w.finish(msgid)
+        self.transport.write(w._mv[0:n])   # (w.view(n), without the call)
+        self._budget -= 1
+        if self._bps:
+            self._credit -= n * 1000
 
     # ------------------------------------------------------------ handling
     def _handle(self, p):
@@ -271,8 +379,7 @@ class Endpoint:
         if mid == msg.MSG_HEARTBEAT:
             if p.sysid == self.params.get_int(self._p_gcs):
                 if self.gcs_last_ms < 0 or ticks_diff(self.now_ms, self.gcs_last_ms) > 2000:
-                    self._hb_due = self.now_ms  # a ground station (re)appeared: answer at once
-                    self._wake = self.now_ms
+                    self._heartbeat_now()  # a ground station (re)appeared: answer at once
                 self.gcs_last_ms = self.now_ms
         elif mid == msg.MSG_COMMAND_LONG:
             if self._for_us(pl[30], pl[31]):
@@ -406,16 +513,17 @@ class Endpoint:
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED if err == 0 else msg.MAV_RESULT_DENIED, err)
         elif cmd == msg.MAV_CMD_REQUEST_MESSAGE:
             mid = int(struct.unpack_from("<f", pl, 0)[0])
-            if mid == msg.MSG_HEARTBEAT:
-                self._hb_due = self.now_ms
-            else:
-                k = _stream_of(mid)
-                if k < 0:
-                    self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
-                    return
-                self._due_ms[k] = self.now_ms
-            self._wake = self.now_ms
+            k = _stream_of(mid) if mid != msg.MSG_HEARTBEAT else -1
+            if k < 0 and mid != msg.MSG_HEARTBEAT:
+                self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
+                return
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+            # the answer goes now; the stream goes on a period from here
+            if k < 0:
+                self._heartbeat_now()
+            else:
+                self._send_stream(k)
+            self._wake = self.now_ms
         else:
             self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
 
@@ -458,6 +566,12 @@ class Endpoint:
         self._send(msg.MSG_STATUSTEXT)
 
     # ------------------------------------------------------------ telemetry
+    def _heartbeat_now(self):
+        self._pending &= ~_F_HEARTBEAT
+        self._hb_due = (self.now_ms + _HEARTBEAT_MS) & _TICKS_MASK
+        self._wake = self.now_ms
+        self.send_heartbeat()
+
     def send_heartbeat(self):
         m = self.modes
         w = self.writer
@@ -466,67 +580,47 @@ class Endpoint:
         self._send(msg.MSG_HEARTBEAT)
 
     def _send_stream(self, k):
+        """All of stream ``k``'s frames, now (a request's answer); its next one a period on."""
+        f = _STREAM_FRAMES[k]
+        self._pending &= ~f
+        period = self._period_ms[k]
+        if period > 0:
+            self._due_ms[k] = (self.now_ms + period) & _TICKS_MASK
+        b = 1
+        while b <= f:
+            if b & f:
+                self._send_frame(b)
+            b <<= 1
+
+    def _send_frame(self, f):
+        """The stream frame of bit ``f`` (``_F_*``)."""
+        if f == _F_HEARTBEAT:
+            self.send_heartbeat()
+            return
         t = self.t
+        if self.on_refresh is not None:
+            # the firmware fills the telemetry just before it goes out
+            what = 1 if f & _F_ATT_GROUP else 2
+            if not self._fresh & what:
+                self._fresh |= what
+                self.on_refresh(what - 1)
         w = self.writer
         b = w.buf
         o = w.payload
         now = self.now_ms
-        if k == _S_ATTITUDE:
+        if f == _F_ATTITUDE:
             e = self._euler
             quat.to_euler(e, t.q)
             r = t.rates
             struct.pack_into(msg.ATTITUDE_FMT, b, o, now, e[0], e[1], e[2], r[0], r[1], r[2])
             self._send(msg.MSG_ATTITUDE)
+        elif f == _F_ATTITUDE_Q:
             q = t.q
+            r = t.rates
             struct.pack_into(msg.ATTITUDE_QUATERNION_FMT, b, o, now, q[0], q[1], q[2], q[3],
                              r[0], r[1], r[2], 0.0, 0.0, 0.0, 0.0)
             self._send(msg.MSG_ATTITUDE_QUATERNION)
-        elif k == _S_POSITION:
-            p = t.pos_ned
-            v = t.vel_ned
-            struct.pack_into(msg.LOCAL_POSITION_NED_FMT, b, o, now, p[0], p[1], p[2], v[0], v[1], v[2])
-            self._send(msg.MSG_LOCAL_POSITION_NED)
-            struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.env[0], _DEPTH_NAME)
-            self._send(msg.MSG_NAMED_VALUE_FLOAT)
-            if t.has_target:
-                g = t.target_ned
-                # type_mask 0xFF8: position only (velocity, acceleration, yaw ignored)
-                struct.pack_into(msg.POSITION_TARGET_LOCAL_NED_FMT, b, o, now, g[0], g[1], g[2],
-                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0xDF8, msg.MAV_FRAME_LOCAL_NED)
-                self._send(msg.MSG_POSITION_TARGET_LOCAL_NED)
-        elif k == _S_SENSORS:
-            env = t.env
-            struct.pack_into(msg.SCALED_PRESSURE_FMT, b, o, now, env[1] * 0.01, 0.0,
-                             _clamp16(env[2] * 100.0), 0)
-            self._send(msg.MSG_SCALED_PRESSURE)
-            m = t.imu
-            # mG, mrad/s, mgauss (SCALED_IMU units)
-            struct.pack_into(msg.SCALED_IMU_FMT, b, o, now,
-                             _clamp16(m[0] * 101.97162), _clamp16(m[1] * 101.97162), _clamp16(m[2] * 101.97162),
-                             _clamp16(m[3] * 1000.0), _clamp16(m[4] * 1000.0), _clamp16(m[5] * 1000.0),
-                             _clamp16(m[6] * 1000.0), _clamp16(m[7] * 1000.0), _clamp16(m[8] * 1000.0),
-                             _clamp16(env[2] * 100.0))
-            self._send(msg.MSG_SCALED_IMU)
-        elif k == _S_SERVO:
-            s = t.servo_us
-            struct.pack_into(msg.SERVO_OUTPUT_RAW_FMT, b, o, (now * 1000) & 0xFFFFFFFF,
-                             s[0], s[1], s[2], s[3], 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
-            self._send(msg.MSG_SERVO_OUTPUT_RAW)
-            for i in range(4):
-                struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.servo_deg[i], _WING_NAMES[i])
-                self._send(msg.MSG_NAMED_VALUE_FLOAT)
-        elif k == _S_BATTERY:
-            bat = t.battery
-            w.clear(msg.BATTERY_STATUS_LEN)
-            mv = int(bat[0] * 1000.0)
-            if mv > 65534:
-                mv = 65534
-            struct.pack_into(msg.BATTERY_STATUS_FMT, b, o, -1, -1, 0x7FFF,
-                             mv, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF,
-                             _clamp16(bat[1] * 100.0), 0, 0, 0,
-                             int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0, 0, 0, 0, 0, 0)
-            self._send(msg.MSG_BATTERY_STATUS)
-        elif k == _S_STATUS:
+        elif f == _F_STATUS:
             bat = t.battery
             mv = int(bat[0] * 1000.0)
             if mv > 65534:
@@ -541,13 +635,63 @@ class Endpoint:
                              (par.crc_errors + par.bad_header) & 0xFFFF, t.failsafe_flags & 0xFFFF,
                              0, 0, 0, int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0)
             self._send(msg.MSG_SYS_STATUS)
+        elif f == _F_TIME:
             struct.pack_into(msg.SYSTEM_TIME_FMT, b, o, 0, now)
             self._send(msg.MSG_SYSTEM_TIME)
+        elif f == _F_SLOT:
             slot = self.slot_max_us
             if slot >= 0:
                 struct.pack_into(_SLOT_FMT, b, o, now, slot, _SLOT_NAME)
                 self._send(_MSG_SLOT)
                 self.slot_max_us = -1
+        elif f == _F_LOCAL_POS:
+            p = t.pos_ned
+            v = t.vel_ned
+            struct.pack_into(msg.LOCAL_POSITION_NED_FMT, b, o, now, p[0], p[1], p[2], v[0], v[1], v[2])
+            self._send(msg.MSG_LOCAL_POSITION_NED)
+        elif f == _F_DEPTH:
+            struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.env[0], _DEPTH_NAME)
+            self._send(msg.MSG_NAMED_VALUE_FLOAT)
+        elif f == _F_TARGET:
+            if t.has_target:
+                g = t.target_ned
+                # type_mask 0xFF8: position only (velocity, acceleration, yaw ignored)
+                struct.pack_into(msg.POSITION_TARGET_LOCAL_NED_FMT, b, o, now, g[0], g[1], g[2],
+                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0xDF8, msg.MAV_FRAME_LOCAL_NED)
+                self._send(msg.MSG_POSITION_TARGET_LOCAL_NED)
+        elif f == _F_PRESSURE:
+            env = t.env
+            struct.pack_into(msg.SCALED_PRESSURE_FMT, b, o, now, env[1] * 0.01, 0.0,
+                             _clamp16(env[2] * 100.0), 0)
+            self._send(msg.MSG_SCALED_PRESSURE)
+        elif f == _F_IMU:
+            m = t.imu
+            # mG, mrad/s, mgauss (SCALED_IMU units)
+            struct.pack_into(msg.SCALED_IMU_FMT, b, o, now,
+                             _clamp16(m[0] * 101.97162), _clamp16(m[1] * 101.97162), _clamp16(m[2] * 101.97162),
+                             _clamp16(m[3] * 1000.0), _clamp16(m[4] * 1000.0), _clamp16(m[5] * 1000.0),
+                             _clamp16(m[6] * 1000.0), _clamp16(m[7] * 1000.0), _clamp16(m[8] * 1000.0),
+                             _clamp16(t.env[2] * 100.0))
+            self._send(msg.MSG_SCALED_IMU)
+        elif f == _F_SERVO:
+            s = t.servo_us
+            struct.pack_into(msg.SERVO_OUTPUT_RAW_FMT, b, o, (now * 1000) & 0xFFFFFFFF,
+                             s[0], s[1], s[2], s[3], 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+            self._send(msg.MSG_SERVO_OUTPUT_RAW)
+        elif f & 0xF000:   # _F_WING1.._F_WING4
+            i = 0 if f == _F_WING1 else (1 if f == _F_WING2 else (2 if f == _F_WING3 else 3))
+            struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.servo_deg[i], _WING_NAMES[i])
+            self._send(msg.MSG_NAMED_VALUE_FLOAT)
+        elif f == _F_BATTERY:
+            bat = t.battery   # (every field packed: nothing to clear)
+            mv = int(bat[0] * 1000.0)
+            if mv > 65534:
+                mv = 65534
+            struct.pack_into(msg.BATTERY_STATUS_FMT, b, o, -1, -1, 0x7FFF,
+                             mv, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF, 0xFFFF,
+                             _clamp16(bat[1] * 100.0), 0, 0, 0,
+                             int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0, 0, 0, 0, 0, 0)
+            self._send(msg.MSG_BATTERY_STATUS)
 
 
 def _clamp16(x):

@@ -22,6 +22,10 @@ except ImportError:  # CPython
     def const(x):
         return x
 
+_crc = crc.fast
+_trim = crc.trim
+_CRC_INIT = const(0xFFFF)
+
 STX_V2 = const(0xFD)
 STX_V1 = const(0xFE)
 HEADER_V2 = const(10)
@@ -73,6 +77,7 @@ class Writer:
         """
         entry = TABLE[msgid]
         b = self.buf
+        signed = False
         if seq < 0:
             seq = self.seq
             self.seq = (seq + 1) & 0xFF
@@ -85,13 +90,11 @@ class Writer:
             b[4] = self.compid
             b[5] = msgid
             end = HEADER_V1 + plen
-            signed = False
         else:
-            plen = entry[3]
-            while plen > 1 and b[HEADER_V2 + plen - 1] == 0:
-                plen -= 1
+            plen = _trim(b, HEADER_V2, entry[3])
             signing = self.signing
-            signed = signing is not None and signing.key is not None
+            if signing is not None:
+                signed = signing.key is not None
             b[0] = STX_V2
             b[1] = plen
             b[2] = IFLAG_SIGNED if signed else 0
@@ -103,8 +106,9 @@ class Writer:
             b[8] = (msgid >> 8) & 0xFF
             b[9] = msgid >> 16
             end = HEADER_V2 + plen
-        c = crc.accumulate(crc.CRC_INIT, b, 1, end)
-        c = crc.accumulate_byte(c, entry[1])
+        # CRC_EXTRA goes where the checksum will be, so that one pass covers it
+        b[end] = entry[1]
+        c = _crc(_CRC_INIT, b, 1, end + 1)
         b[end] = c & 0xFF
         b[end + 1] = c >> 8
         n = end + 2

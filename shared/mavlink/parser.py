@@ -40,6 +40,9 @@ except ImportError:  # CPython
     def const(x):
         return x
 
+_crc = crc.fast
+_CRC_INIT = const(0xFFFF)
+
 _STX_V2 = const(0xFD)
 _STX_V1 = const(0xFE)
 _HEADER_V2 = const(10)
@@ -64,6 +67,7 @@ class Parser:
         self.buf = bytearray(_FRAME_MAX)
         self._mv = memoryview(self.buf)
         self.payload = bytearray(256)
+        self._dirty = 0    # payload bytes from here on are all zero
         self.signing = signing
         self._n = 0        # bytes held in buf, from a start byte
         self._need = 1     # bytes needed before the next decision
@@ -92,6 +96,7 @@ class Parser:
         self._src = array("l", [-1] * _SOURCES)   # sysid << 8 | compid
         self._last = array("B", bytearray(_SOURCES))
         self._next_src = 0
+        self._last_src = 0
 
     def reset(self):
         """Forget any partial frame (counters stay)."""
@@ -117,6 +122,20 @@ class Parser:
             n = self._n
             if n == 0:
                 b = data[i]
+                if b == _STX_V2 and i + _HEADER_V2 <= end:
+                    # a MAVLink 2 header all here: when the whole frame is
+                    # too, take it in one copy (the checks are _run's)
+                    entry = TABLE.get(data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16))
+                    if entry is not None:
+                        k = _HEADER_V2 + 2 + data[i + 1] + (_SIGNATURE_LEN if data[i + 2] & 1 else 0)
+                        if i + k <= end:
+                            buf[0:k] = data[i:i + k]
+                            i += k
+                            self._n = k
+                            self._need = _HEADER_V2
+                            if self._run():
+                                return i
+                            continue
                 i += 1
                 if b == _STX_V2:
                     self._need = _HEADER_V2
@@ -164,6 +183,10 @@ class Parser:
         self._drop = 0
         self._flen = 0
         n = self._n
+        if k >= n:   # the usual case: a whole frame was held, and only it
+            self._n = 0
+            self._need = 1
+            return
         buf = self.buf
         j = k
         while j < n and buf[j] != _STX_V2 and buf[j] != _STX_V1:
@@ -223,9 +246,12 @@ class Parser:
             entry = TABLE[msgid]
             plen = buf[1]
             end = hdr + plen
-            c = crc.accumulate(crc.CRC_INIT, buf, 1, end)
-            c = crc.accumulate_byte(c, entry[1])
-            if buf[end] != (c & 0xFF) or buf[end + 1] != (c >> 8):
+            # CRC_EXTRA in the checksum's place for one pass, then the byte back
+            lo = buf[end]
+            buf[end] = entry[1]
+            c = _crc(_CRC_INIT, buf, 1, end + 1)
+            buf[end] = lo
+            if lo != (c & 0xFF) or buf[end + 1] != (c >> 8):
                 self.crc_errors += 1
                 self._reject()
                 continue
@@ -253,8 +279,11 @@ class Parser:
         self.frame_len = flen
         p = self.payload
         p[0:plen] = self._mv[hdr:hdr + plen]
-        for i in range(plen, entry[3]):  # MAVLink 2 truncation: the rest is zeros
+        # MAVLink 2 truncation: the rest is zeros; only what an earlier, longer
+        # frame left there needs clearing
+        for i in range(plen, self._dirty):
             p[i] = 0
+        self._dirty = plen
         self.sig_ok = False
         if self.signed:
             s = self.signing
@@ -270,12 +299,19 @@ class Parser:
     def _count_sequence(self):
         key = (self.sysid << 8) | self.compid
         src = self._src
+        i = self._last_src   # most frames come from the sender of the one before
+        if src[i] == key:
+            self.lost += (self.seq - self._last[i] - 1) & 0xFF
+            self._last[i] = self.seq
+            return
         for i in range(_SOURCES):
             if src[i] == key:
                 self.lost += (self.seq - self._last[i] - 1) & 0xFF
                 self._last[i] = self.seq
+                self._last_src = i
                 return
         i = self._next_src
+        self._last_src = i
         self._next_src = (i + 1) % _SOURCES
         src[i] = key
         self._last[i] = self.seq

@@ -268,7 +268,13 @@ def _board_time(config):
 
     def run_instrumented(sched, cycles=-1):
         v = app.vehicle
-        bt.instrument(sched, v.modes if v is not None else None)
+        if bt.source == "emu":
+            boardtime.emuboard.exclude_begin()   # the twin's own set-up, not the board's
+        try:
+            bt.instrument(sched, v.modes if v is not None else None)
+        finally:
+            if bt.source == "emu":
+                boardtime.emuboard.exclude_end()
         return run_loop(sched, cycles)
 
     Scheduler.run = run_instrumented

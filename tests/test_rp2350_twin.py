@@ -1,0 +1,73 @@
+"""The twin on the emulated RP2350 (``--interpreter rp2350-emu``): the
+firmware's instructions counted on a Cortex-M33 build of MicroPython and
+charged to the virtual clock, so its loop takes the time it would on a
+Pico 2 (``sim/twin/board/boardtime.py``, ``tools/rp2350_emu/``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from roboray.firmware import app
+from roboray.sim.twin.runner import Options, run
+from roboray.tools.micropython import rp2350_emu
+
+pytestmark = pytest.mark.skipif(
+    not rp2350_emu.available(),
+    reason="qemu-system-arm (Debian package qemu-system-arm) is not installed: the emulated RP2350 cannot run")
+
+
+def fly(**kw):
+    o = dict(scenario="passive-drop", interpreter="rp2350-emu", depth=4.0, duration=12.0)
+    o.update(kw)
+    return run(Options(**o))
+
+
+def test_the_firmware_boots_and_its_loop_takes_board_time():
+    r = fly()
+    assert r["interpreter"].startswith("rp2350-emu 1.29")
+    assert r["console"][0] == r["firmware"] and "running: 8 tasks, loop 100 Hz" in r["console"]
+    assert [m for _, m in r["modes"]] == ["DISARMED", "PASSIVE"]
+    assert r["crashes"] == 0 and r["resets"] == 0 and r["task_errors"] == 0
+    bt = r["board_time"]
+    assert bt["source"] == "emu" and bt["records_lost"] == 0
+    # every task call was counted, and each takes time on the chip
+    nav = bt["tasks"]["nav"]
+    assert nav["calls"] > 800 and 500 < nav["mean_us"] < 10000
+    assert bt["tasks"]["gc"]["calls"] >= 30 and bt["tasks"]["gc"]["mean_us"] > 5000
+    assert 1.0 < r["slot_p50_ms"] < 10.0 and r["slot_max_ms"] >= r["slot_p99_ms"] >= r["slot_p50_ms"]
+    # the collection is announced: its slots are planned stalls, not overruns
+    assert r["planned_stalls"] >= bt["tasks"]["gc"]["calls"] - 2
+
+
+def test_the_same_seed_gives_the_same_flight_and_nearly_the_same_times():
+    # QEMU's instruction count is exact, but its virtual clock can move by a
+    # fraction of an instruction around the board's blocking semihosting
+    # calls (the hostlink's pipe), so two runs differ by a few instructions
+    # and, where that moves a clock reading across a microsecond, in the
+    # loop's figures (docs/design/board-time.md): not byte-identical tlogs,
+    # as the WebAssembly port's model gives (test_board_time.py)
+    a, b = (fly(duration=10.0) for _ in range(2))
+    assert a["modes"] == b["modes"] and a["failsafes"] == b["failsafes"]
+    ta, tb = a["board_time"]["tasks"], b["board_time"]["tasks"]
+    for name in ta:
+        assert abs(ta[name]["calls"] - tb[name]["calls"]) <= 0.01 * ta[name]["calls"] + 1
+        assert tb[name]["mean_us"] == pytest.approx(ta[name]["mean_us"], rel=0.01)
+    assert b["slot_p50_ms"] == pytest.approx(a["slot_p50_ms"], rel=0.01)
+
+
+def test_a_board_too_slow_for_its_loop_starves_the_watchdog():
+    # at 40 MHz a slot's work takes ~20 ms: the loop overruns slot after
+    # slot, the scheduler stops feeding the watchdog after 25 and the board
+    # resets, again and again
+    r = fly(cpu_mhz=40.0, duration=8.0)
+    assert r["overruns"] >= 25 and r["resets"] >= 2
+    assert r["slot_p50_ms"] > 10.0 and r["skipped_slots"] > 0
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(app.control_mod is None, reason="the controller (shared/control) is not in this firmware yet")
+def test_a_target_landing_with_the_board_code_in_romfs():
+    r = run(Options(scenario="target-landing", interpreter="rp2350-emu", romfs=True))
+    assert r["interpreter"].endswith("(board code in ROMFS)")
+    assert r["landed"] and r["landing_error_m"] < 0.25
+    assert [m for _, m in r["modes"]][-1] == "TARGET" and r["resets"] == 0
