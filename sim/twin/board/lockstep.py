@@ -222,7 +222,7 @@ class Lockstep:
             return
         s = v.sched
         self.overruns += s.overruns
-        self.stalls += s.stalls
+        self.stalls += getattr(s, "stalls", 0)
         self.skipped += s.skipped
         if s.max_loop_us > self.max_loop_us:
             self.max_loop_us = s.max_loop_us
