@@ -18,6 +18,8 @@ MicroPython code (``open`` of ``/dev/fd/N``: the pipes the twin passed down).
 
 _in = None
 _out = None
+_head = bytearray(8)
+_buf = bytearray(4096)
 
 
 def connect(fd_in, fd_out):
@@ -27,16 +29,32 @@ def connect(fd_in, fd_out):
     _out = open("/dev/fd/%d" % fd_out, "wb")
 
 
-def request(text):
-    _out.write(text + "\n")
-    head = _in.read(8)
-    if len(head) < 8:
-        raise SystemExit(0)   # the twin went away: nothing left to simulate
-    n = int(head)
-    data = _in.read(n)
-    while len(data) < n:   # a pipe may hand over a long answer in parts
-        more = _in.read(n - len(data))
+def _fill(mv):
+    # Read exactly len(mv) bytes into mv. The same allocations whether the
+    # pipe hands the answer over at once or in parts: on the emulated
+    # RP2350 the twin's own garbage shares the heap with the firmware's, and
+    # a heap laid out differently from one run to the next would change what
+    # the firmware's allocations cost (its time is counted), so a run would
+    # not repeat exactly. A slice is made only when a read came up short.
+    n = len(mv)
+    got = _in.readinto(mv)
+    while got is not None and got < n:
+        more = _in.readinto(mv[got:])
         if not more:
-            raise SystemExit(0)
-        data += more
-    return data.decode()
+            break
+        got += more
+    if not got or got < n:
+        raise SystemExit(0)   # the twin went away: nothing left to simulate
+
+
+def request(text):
+    global _buf
+    _out.write(text)
+    _out.write("\n")
+    _fill(_head)
+    n = int(_head)
+    if n > len(_buf):
+        _buf = bytearray(n + 1024)   # a longer answer than any before
+    mv = memoryview(_buf)[:n]
+    _fill(mv)
+    return str(mv, "utf-8")
