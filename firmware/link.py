@@ -2,11 +2,10 @@
 
 ``Link.step()`` (every 10 ms) pushes what the radio queued
 (``Radio.service``) and lets the endpoint (``shared/mavlink/endpoint.py``)
-handle what arrived and send what is due, a few frames a slot (the
-endpoint's budget). The telemetry (``firmware/telemetry.py``) is filled
-when the endpoint is about to send it: the attitude as it is then, the rest
-at most every ``_FILL_MS``. The endpoint's clock is the scheduler's stamp of
-the slot's start (``sched.now_ms``), so the task reads no clock itself.
+handle what arrived and send what is due, one frame's work a slot (the
+endpoint's budget: a received frame parsed, or handled, or one frame
+built). The telemetry (``firmware/telemetry.py``) is filled a stream at a
+time, just before the endpoint sends that stream (``Reporter.refresh``).
 Running every slot, it sees every slot's time (the scheduler's
 ``last_loop_us``, the slot before this one) and keeps the longest in the
 endpoint's ``slot_max_us``, which the status report sends and starts over.
@@ -38,8 +37,6 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-_FILL_MS = const(100)       # the rest of the telemetry is refreshed at most at 10 Hz
-_TICKS_MASK = const(0x3FFFFFFF)
 _VELOCITY_BITS = const(0x38)
 _FLUSH_TRIES = const(40)    # x 5 ms: time the COMMAND_ACK of a reboot gets to leave
 
@@ -95,23 +92,10 @@ class Link:
         self._machine = machine
         self._clock = clock
         self.ep = VehicleEndpoint(radio, params, modes, telemetry, on_fix=self._on_fix,
-                                  on_refresh=self._refresh)
-        self._filled_ms = -1
+                                  on_refresh=reporter.refresh)
 
     def _on_fix(self, fix):
         self.nav.fix(fix[0], fix[1])
-
-    def _refresh(self, what):
-        # the endpoint is about to send telemetry: attitude (what 0) as it is
-        # now, the rest (1) if it is older than _FILL_MS
-        r = self.reporter
-        if what == 0:
-            r.fast()
-            return
-        now = self.ep.now_ms
-        if self._filled_ms < 0 or ((now - self._filled_ms) & _TICKS_MASK) >= _FILL_MS:
-            self._filled_ms = now
-            r.fill()
 
     def step(self):
         """Scheduler task (every 10 ms)."""
@@ -123,10 +107,7 @@ class Link:
             w = sched.last_loop_us
             if w > ep.slot_max_us:
                 ep.slot_max_us = w
-            # the slot's start, read by the scheduler: no clock call of our own
-            ep.update(sched.now_ms)
-        else:
-            ep.update(self._clock.ticks_ms())
+        ep.update(self._clock.ticks_ms())
         if ep.reboot_requested:
             ep.reboot_requested = False
             self.reboot()

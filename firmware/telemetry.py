@@ -2,13 +2,15 @@
 
 The MAVLink endpoint sends the telemetry streams from a
 ``shared/mavlink/telemetry.Telemetry`` at their ``SR_*`` rates; ``Reporter``
-keeps that object current. ``fast()`` copies the attitude, which the
-ATTITUDE stream may want at up to 50 Hz, with slice copies between
-``array('f')`` buffers (no float boxed); ``fill()`` does the rest at 10 Hz:
-position and velocity (NED, from the estimator's ``nav``), depth, pressure
-and temperature, the IMU in body axes, wing angles and pulses, battery, loop
-load. Failsafe flags and the SYS_STATUS sensor bits are written by
-``firmware/failsafe.py`` as it evaluates them.
+keeps that object current, one stream's part at a time, just before the
+endpoint sends it (``firmware/link.py`` passes ``refresh`` as the
+endpoint's ``on_refresh``): ``fast()`` copies the attitude and rates with
+slice copies between ``array('f')`` buffers (no float boxed);
+``position()`` position and velocity (NED, from the estimator's ``nav``)
+and depth; ``sensors()`` pressure, temperature and the IMU in body axes;
+``servo()`` wing angles and pulses; ``power()`` battery and loop load.
+``fill()`` does all but ``fast()``. Failsafe flags and the SYS_STATUS sensor bits
+are written by ``firmware/failsafe.py`` as it evaluates them.
 
 The battery's remaining charge is reported unknown (-1): the vehicle has no
 current sensor, and a Li-ion pack's voltage under a servo load says little
@@ -16,6 +18,12 @@ about its charge.
 """
 
 _RAD_TO_DEG = 57.29577951308232
+
+# Stream numbers (shared/mavlink/endpoint.py): what ``refresh`` is called with
+_ATTITUDE = 0
+_POSITION = 1
+_SENSORS = 2
+_SERVO = 3
 
 
 class Reporter:
@@ -29,18 +37,30 @@ class Reporter:
         self.sched = sched
         telemetry.battery[2] = -1.0
 
+    def refresh(self, stream):
+        """The part of the telemetry stream number ``stream`` sends (the endpoint's ``on_refresh``)."""
+        if stream == _ATTITUDE:
+            self.fast()
+        elif stream == _POSITION:
+            self.position()
+        elif stream == _SENSORS:
+            self.sensors()
+        elif stream == _SERVO:
+            self.servo()
+        else:   # battery, status
+            self.power()
+
     def fast(self):
-        """Attitude and rates (every link cycle)."""
+        """Attitude and rates."""
         t = self.t
         est = self.nav.est
         t.q[0:4] = est.q
         t.rates[0:3] = est.rates
 
-    def fill(self):
-        """Everything else (10 Hz)."""
+    def position(self):
+        """Position and velocity (NED), depth."""
         t = self.t
-        nav = self.nav
-        n = nav.est.nav
+        n = self.nav.est.nav
         p = t.pos_ned
         p[0] = n[2]
         p[1] = n[3]
@@ -49,20 +69,42 @@ class Reporter:
         v[0] = n[4]
         v[1] = n[5]
         v[2] = n[1]
+        t.env[0] = n[0]
+
+    def sensors(self):
+        """Pressure and temperature; the IMU in body axes."""
+        t = self.t
+        nav = self.nav
         env = t.env
-        env[0] = n[0]
         d = nav.depth
         env[1] = d.pressure_pa
         env[2] = d.temp_cc * 0.01
         t.imu[0:9] = nav.body
+
+    def servo(self):
+        """Wing angles (degrees) and pulses."""
+        t = self.t
         w = self.wings
         c = w.command
         s = t.servo_deg
-        for k in range(4):
-            s[k] = c[k] * _RAD_TO_DEG
+        s[0] = c[0] * _RAD_TO_DEG
+        s[1] = c[1] * _RAD_TO_DEG
+        s[2] = c[2] * _RAD_TO_DEG
+        s[3] = c[3] * _RAD_TO_DEG
         t.servo_us[0:4] = w.pulse_us
+
+    def power(self):
+        """Battery voltage and loop load."""
+        t = self.t
         t.battery[0] = self.battery.volts[0]
         sched = self.sched
         if sched is not None:
             lp = sched.load_permille
             t.load_permille = 0 if lp < 0 else (1000 if lp > 1000 else lp)
+
+    def fill(self):
+        """Everything but the attitude (``fast``)."""
+        self.position()
+        self.sensors()
+        self.servo()
+        self.power()

@@ -41,6 +41,7 @@ class Radio:
             raise ValueError("the radio's queue must hold at least 64 bytes")
         self._uart = uart
         self._tx = bytearray(tx_size)
+        self._size = tx_size
         self._tx_head = 0
         self._tx_n = 0
         #: Bytes a second the line carries (10 bits a byte: start, 8 data, stop).
@@ -74,26 +75,30 @@ class Radio:
         """Send all of ``buf`` (the UART takes what it can, the queue the rest);
         its length, or 0 if it did not fit."""
         n = len(buf)
+        if not self._tx_n and n <= self._size:
+            # nothing queued: straight to the UART (the usual case: all of it)
+            k = self._uart.write(buf)
+            if k == n:
+                self.tx_bytes += n
+                return n
+            return self._queue(buf, k if k else 0)
+        return self._queue(buf, 0)
+
+    def _queue(self, buf, k):
+        # buf[k:] into the queue (the UART took buf[:k]; k > 0 only with the queue empty)
+        n = len(buf)
         tx = self._tx
-        size = len(tx)
-        if n > size - self._tx_n:
+        size = self._size
+        self.tx_bytes += k
+        m = n - k
+        if m > size - self._tx_n:
             self.tx_dropped_frames += 1
             self.tx_dropped_bytes += n
             return 0
-        k = 0
-        if not self._tx_n:
-            # nothing queued: straight to the UART, the queue only for what it has no room for
-            k = self._uart.write(buf)
-            if k is None:
-                k = 0
-            self.tx_bytes += k
-            if k >= n:
-                return n
         j = self._tx_head + self._tx_n
         if j >= size:
             j -= size
-        m = n - k
-        if j + m <= size and k == 0:
+        if k == 0 and j + m <= size:
             tx[j:j + m] = buf  # one copy in C; no allocation for a whole buffer
         else:
             for i in range(k, n):
@@ -108,7 +113,7 @@ class Radio:
 
     def _push(self):
         uart = self._uart
-        size = len(self._tx)
+        size = self._size
         while self._tx_n:
             h = self._tx_head
             run = size - h if h + self._tx_n > size else self._tx_n

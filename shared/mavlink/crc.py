@@ -51,6 +51,31 @@ _REV = bytes([int("{:08b}".format(i)[::-1], 2) for i in range(256)]) if _hqx is 
 # a MAVLink 2 payload's length without its trailing zero bytes (one stays).
 _VIPER = """
 @micropython.viper
+def v2_finish(buf, n: int, msgid: int, packed: int) -> int:
+    b = ptr8(buf)
+    while n > 1 and b[9 + n] == 0:
+        n -= 1
+    b[0] = 0xFD
+    b[1] = n
+    b[3] = 0
+    b[4] = packed & 0xFF
+    b[5] = (packed >> 16) & 0xFF
+    b[7] = msgid & 0xFF
+    b[8] = (msgid >> 8) & 0xFF
+    b[9] = (msgid >> 16) & 0xFF
+    end = 10 + n
+    b[end] = (packed >> 8) & 0xFF
+    c = 0xFFFF
+    i = 1
+    while i <= end:
+        x = (b[i] ^ c) & 0xFF
+        x ^= (x << 4) & 0xFF
+        c = ((c >> 8) ^ (x << 8) ^ (x << 3) ^ (x >> 4)) & 0xFFFF
+        i += 1
+    b[end] = c & 0xFF
+    b[end + 1] = (c >> 8) & 0xFF
+    return end + 2
+@micropython.viper
 def trim(buf, start: int, n: int) -> int:
     b = ptr8(buf)
     while n > 1 and b[start + n - 1] == 0:
@@ -83,6 +108,11 @@ def _native():
         t = ns["trim"]
         if f(CRC_INIT, b"123456789", 0, 9) != 0x6F91 or t(b"\x00ab\x00\x00", 1, 4) != 2:
             return None
+        b = bytearray(16)
+        b[10] = 7
+        if ns["v2_finish"](b, 4, 0x10203, 5 | (50 << 8) | (1 << 16)) != 13 or b[1] != 1 or \
+                (b[11] | (b[12] << 8)) != f(f(CRC_INIT, b, 1, 11), bytes((50,)), 0, 1):
+            return None
         return ns
     except Exception:
         return None
@@ -99,6 +129,11 @@ _NS = _native()
 #: The compiled loops, or None where the port cannot compile them.
 viper_accumulate = _NS["viper_accumulate"] if _NS is not None else None
 trim = _NS["trim"] if _NS is not None else python_trim
+#: A MAVLink 2 frame's header and checksum in one native call, or None:
+#: ``v2_finish(buf, max_len, msgid, seq | crc_extra << 8 | sysid << 16)``
+#: -> frame length (the payload packed at 10, trailing zeros dropped;
+#: ``buf[2]`` and ``buf[6]``, flags and compid, are the caller's).
+v2_finish = _NS["v2_finish"] if _NS is not None else None
 
 
 def accumulate(crc, buf, start, end):

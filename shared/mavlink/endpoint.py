@@ -69,6 +69,7 @@ _TICKS_MASK = const(0x3FFFFFFF)   # time.ticks_ms() wraps at 2**30 on MicroPytho
 _TICKS_HALF = const(0x20000000)
 _FRAMES_PER_UPDATE = const(1)     # frames handled or built per update (see Endpoint)
 _CREDIT_MAX = const(512000)       # line credit (milli-bytes): at most this much sent at once
+_ANSWERS = const(16)              # PARAM_VALUE answers waiting for their turn, at most
 _HEARTBEAT_MS = const(1000)
 _FORCE_MAGIC = const(21196)       # MAV_CMD_COMPONENT_ARM_DISARM param2: force
 
@@ -101,7 +102,8 @@ _F_WING2 = const(0x2000)
 _F_WING3 = const(0x4000)
 _F_WING4 = const(0x8000)
 _F_BATTERY = const(0x10000)
-_F_ATT_GROUP = const(0x6)         # what is a stream's attitude data (Reporter.fast)
+# A stream's telemetry is refreshed (on_refresh) with its first frame, which
+# has its lowest bit: the others of the stream go out after it and use the same.
 # each stream's frames, by stream number
 _STREAM_FRAMES = (0x6, 0x1C0, 0x600, 0xF800, 0x10000, 0x38)
 
@@ -163,19 +165,20 @@ class Endpoint:
         Bytes read from the transport per update, at most: what arrives
         faster waits in the transport (the radio's UART buffer).
     on_refresh:
-        Called before telemetry goes out, at most once an update each:
-        ``on_refresh(0)`` before an attitude frame (``q``, ``rates``),
-        ``on_refresh(1)`` before any other stream frame, so that the firmware
-        fills ``telemetry`` only when it is about to be sent.
+        ``on_refresh(k)`` is called before stream ``k`` (``_S_*``: 0
+        attitude, 1 position, 2 sensors, 3 servo, 4 battery, 5 status)
+        goes out, with its first frame, so that the firmware fills that
+        part of ``telemetry`` only when it is about to be sent.
     frames_per_update:
-        The update's budget, in frames handled or built: received frames
-        are handled first, each taking one, and their answers (always
-        sent) one each; what is left goes to the heartbeat and the stream
+        The update's budget, in units of one frame's work: a received frame
+        parsed takes one, handling it one (a frame parsed when the budget
+        is spent is handled in the next update), each answer one (answers
+        always go); what is left goes to the heartbeat and the stream
         frames that are due, then to a parameter list's next values. What
         does not fit waits for the next update: received bytes in the
         transport, due frames in ``_pending`` (the streams keep their rates
-        on average). One a 10 ms update is ~100 frames a second, more than
-        the 57600-baud radio carries.
+        on average). One a 10 ms update is ~100 frames a second out, or 50
+        in, more than the 57600-baud radio carries of either.
 
     Pacing: with a transport that has ``bytes_per_s`` (the radio), stream
     frames and a parameter list go out only while the line has carried what
@@ -214,7 +217,12 @@ class Endpoint:
         self._rx_i = 0           # received bytes in _rx not yet parsed: _rx[_rx_i:_rx_n]
         self._rx_n = 0
         self.on_refresh = on_refresh
-        self._fresh = 0          # what on_refresh did this update (bit 0: attitude, bit 1: the rest)
+        self._held = False       # the parser holds a frame to handle in the next update
+        self._read_last = False  # the last update read the transport
+        # PARAM_VALUE answers (read, set) wait here for the next update's turn
+        self._ans = array("H", [0] * _ANSWERS)
+        self._ans_head = 0
+        self._ans_n = 0
         self._frames = frames_per_update
         self._budget = 0         # frames this update may still build
         self._pending = 0        # _F_* frames due and not yet sent
@@ -230,7 +238,6 @@ class Endpoint:
         # Whatever moves a due time sets it to now.
         self._wake = 0
         self._param_next = -1   # next index to send for a list request, -1: none
-        self._text = bytearray(50)
         self._euler = array("f", [0.0, 0.0, 0.0])
         self.now_ms = 0
         # for the firmware
@@ -257,15 +264,32 @@ class Endpoint:
         now = now_ms & _TICKS_MASK
         self.now_ms = now
         self._budget = self._frames
-        self._fresh = 0
-        if self._bps:
-            # the line's credit: what it carried since the last update
-            if self._credit_ms >= 0:
-                c = self._credit + ((now - self._credit_ms) & _TICKS_MASK) * self._bps
-                self._credit = c if c < _CREDIT_MAX else _CREDIT_MAX
-            self._credit_ms = now
-        # what arrived: what is left of the last read, else one read; each
-        # frame handled takes a frame's share of the budget, its answers theirs
+        # a frame parsed in the last update is handled first
+        p = self.parser
+        if self._held:
+            self._held = False
+            self._budget -= 1
+            self._handle(p)
+        if self._budget <= 0:
+            return      # (what fell due is looked at in the next update)
+        # what is due
+        if self.params.version != self._params_version:
+            self._load_rates()
+        # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
+        if (now - self._wake) & _TICKS_MASK < _TICKS_HALF:
+            self._due_streams(now)
+        # Sending and reading take turns while there is something to send:
+        # an update that follows one that read sends and does not look at
+        # the transport (what arrived waits there one update more); one that
+        # reads may send too. So a burst of due frames neither holds the
+        # received ones back nor costs a read each.
+        if self._read_last and (self._pending or self._param_next >= 0 or self._ans_n) and self._line_free():
+            self._read_last = False
+            self._send_due()
+            return
+        self._read_last = True
+        # what is left of the last read, else one read, parsed while the
+        # budget lasts (a frame parsed takes one, handling it one)
         i = self._rx_i
         n = self._rx_n
         if i >= n:
@@ -273,36 +297,55 @@ class Endpoint:
             n = self.transport.read_into(self._rx)
             if not n:
                 n = 0
-        if i < n:
-            p = self.parser
-            rxv = self._rxv
-            while i < n:
-                i = p.feed(rxv, i, n)
-                if p.ready:
-                    self._budget -= 1
-                    self._handle(p)
-                    if self._budget <= 0:
-                        break
+        rxv = self._rxv
+        while i < n:
+            i = p.feed(rxv, i, n)
+            if p.ready:
+                self._budget -= 1
+                if self._budget <= 0:
+                    self._held = True
+                    break
+                self._budget -= 1
+                self._handle(p)
+                if self._budget <= 0:
+                    break
         self._rx_i = i
         self._rx_n = n
-        # then what is due
-        if self.params.version != self._params_version:
-            self._load_rates()
-        # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
-        if (now - self._wake) & _TICKS_MASK < _TICKS_HALF:
-            self._due_streams(now)
-        if self._budget > 0 and (self._credit > 0 or not self._bps):
-            if self._pending:
-                self._send_pending()
-            if self._param_next >= 0:
-                count = self.params.count()
-                while self._budget > 0 and (self._credit > 0 or not self._bps):
-                    i = self._param_next
-                    if i >= count:
-                        self._param_next = -1
-                        break
-                    self.send_param(i)
-                    self._param_next = i + 1
+        if self._budget > 0 and (self._pending or self._param_next >= 0 or self._ans_n) and self._line_free():
+            self._send_due()
+
+    def _line_free(self):
+        """Whether the line has carried what was sent (always, without ``bytes_per_s``)."""
+        bps = self._bps
+        if not bps:
+            return True
+        # the line's credit: what it carried since it was last reckoned
+        now = self.now_ms
+        if self._credit_ms >= 0:
+            c = self._credit + ((now - self._credit_ms) & _TICKS_MASK) * bps
+            self._credit = c if c < _CREDIT_MAX else _CREDIT_MAX
+        self._credit_ms = now
+        return self._credit > 0
+
+    def _send_due(self):
+        """Parameter values asked for, due stream frames, then a parameter list's
+        next values, while the budget and the line allow."""
+        while self._ans_n and self._budget > 0:
+            h = self._ans_head
+            self._ans_head = (h + 1) % _ANSWERS
+            self._ans_n -= 1
+            self.send_param(self._ans[h])
+        if self._pending:
+            self._send_pending()
+        if self._param_next >= 0:
+            count = self.params.count()
+            while self._budget > 0 and (self._credit > 0 or not self._bps):
+                i = self._param_next
+                if i >= count:
+                    self._param_next = -1
+                    break
+                self.send_param(i)
+                self._param_next = i + 1
 
     def _due_streams(self, now):
         """Mark the heartbeat and the streams that are due; sets ``_wake`` to the next due time."""
@@ -393,7 +436,7 @@ class Endpoint:
                 if index >= 0x8000:
                     index = self.params.find(pl, 4, 16)
                 if 0 <= index < self.params.count():
-                    self.send_param(index)
+                    self._answer_param(index)
         elif mid == msg.MSG_PARAM_SET:
             if self._for_us(pl[4], pl[5]):
                 self._param_set(pl)
@@ -449,7 +492,17 @@ class Endpoint:
         err = params.set(i, value)
         if err:
             self.send_text(msg.MAV_SEVERITY_WARNING, "%s: %s" % (params.name(i), _param_error(err)))
-        self.send_param(i)
+        self._answer_param(i)
+
+    def _answer_param(self, i):
+        # the PARAM_VALUE of a read or a set goes out in the next update's
+        # turn, first of what waits (now, if too many wait already)
+        n = self._ans_n
+        if n >= _ANSWERS:
+            self.send_param(i)
+            return
+        self._ans[(self._ans_head + n) % _ANSWERS] = i
+        self._ans_n = n + 1
 
     def send_param(self, i):
         params = self.params
@@ -552,17 +605,11 @@ class Endpoint:
         self._send(msg.MSG_COMMAND_ACK)
 
     def send_text(self, severity, text):
-        """STATUSTEXT (up to 50 characters; longer text is cut)."""
-        b = self._text
-        n = len(text)
-        if n > 50:
-            n = 50
-        for i in range(n):
-            b[i] = ord(text[i])
-        for i in range(n, 50):
-            b[i] = 0
+        """STATUSTEXT (up to 50 bytes of UTF-8; longer text is cut)."""
+        # "50s" pads and cuts in C: indexing a str character by character is
+        # O(i) on MicroPython (UTF-8), a 30-character text took ~6 ms so
         w = self.writer
-        struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, b, 0, 0)
+        struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, text.encode(), 0, 0)
         self._send(msg.MSG_STATUSTEXT)
 
     # ------------------------------------------------------------ telemetry
@@ -594,21 +641,21 @@ class Endpoint:
 
     def _send_frame(self, f):
         """The stream frame of bit ``f`` (``_F_*``)."""
-        if f == _F_HEARTBEAT:
-            self.send_heartbeat()
-            return
+        # the most frequent first; a stream's first frame has the firmware
+        # fill its telemetry just before it goes out (on_refresh)
         t = self.t
-        if self.on_refresh is not None:
-            # the firmware fills the telemetry just before it goes out
-            what = 1 if f & _F_ATT_GROUP else 2
-            if not self._fresh & what:
-                self._fresh |= what
-                self.on_refresh(what - 1)
         w = self.writer
         b = w.buf
         o = w.payload
         now = self.now_ms
-        if f == _F_ATTITUDE:
+        refresh = self.on_refresh
+        if f & 0xF000:   # _F_WING1.._F_WING4
+            i = 0 if f == _F_WING1 else (1 if f == _F_WING2 else (2 if f == _F_WING3 else 3))
+            struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.servo_deg[i], _WING_NAMES[i])
+            self._send(msg.MSG_NAMED_VALUE_FLOAT)
+        elif f == _F_ATTITUDE:
+            if refresh is not None:
+                refresh(_S_ATTITUDE)
             e = self._euler
             quat.to_euler(e, t.q)
             r = t.rates
@@ -621,6 +668,8 @@ class Endpoint:
                              r[0], r[1], r[2], 0.0, 0.0, 0.0, 0.0)
             self._send(msg.MSG_ATTITUDE_QUATERNION)
         elif f == _F_STATUS:
+            if refresh is not None:
+                refresh(_S_STATUS)
             bat = t.battery
             mv = int(bat[0] * 1000.0)
             if mv > 65534:
@@ -645,6 +694,8 @@ class Endpoint:
                 self._send(_MSG_SLOT)
                 self.slot_max_us = -1
         elif f == _F_LOCAL_POS:
+            if refresh is not None:
+                refresh(_S_POSITION)
             p = t.pos_ned
             v = t.vel_ned
             struct.pack_into(msg.LOCAL_POSITION_NED_FMT, b, o, now, p[0], p[1], p[2], v[0], v[1], v[2])
@@ -660,6 +711,8 @@ class Endpoint:
                                  0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0xDF8, msg.MAV_FRAME_LOCAL_NED)
                 self._send(msg.MSG_POSITION_TARGET_LOCAL_NED)
         elif f == _F_PRESSURE:
+            if refresh is not None:
+                refresh(_S_SENSORS)
             env = t.env
             struct.pack_into(msg.SCALED_PRESSURE_FMT, b, o, now, env[1] * 0.01, 0.0,
                              _clamp16(env[2] * 100.0), 0)
@@ -674,15 +727,17 @@ class Endpoint:
                              _clamp16(t.env[2] * 100.0))
             self._send(msg.MSG_SCALED_IMU)
         elif f == _F_SERVO:
+            if refresh is not None:
+                refresh(_S_SERVO)
             s = t.servo_us
             struct.pack_into(msg.SERVO_OUTPUT_RAW_FMT, b, o, (now * 1000) & 0xFFFFFFFF,
                              s[0], s[1], s[2], s[3], 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
             self._send(msg.MSG_SERVO_OUTPUT_RAW)
-        elif f & 0xF000:   # _F_WING1.._F_WING4
-            i = 0 if f == _F_WING1 else (1 if f == _F_WING2 else (2 if f == _F_WING3 else 3))
-            struct.pack_into(msg.NAMED_VALUE_FLOAT_FMT, b, o, now, t.servo_deg[i], _WING_NAMES[i])
-            self._send(msg.MSG_NAMED_VALUE_FLOAT)
+        elif f == _F_HEARTBEAT:
+            self.send_heartbeat()
         elif f == _F_BATTERY:
+            if refresh is not None:
+                refresh(_S_BATTERY)
             bat = t.battery   # (every field packed: nothing to clear)
             mv = int(bat[0] * 1000.0)
             if mv > 65534:

@@ -24,6 +24,7 @@ except ImportError:  # CPython
 
 _crc = crc.fast
 _trim = crc.trim
+_v2_finish = crc.v2_finish
 _CRC_INIT = const(0xFFFF)
 
 STX_V2 = const(0xFD)
@@ -81,6 +82,18 @@ class Writer:
         if seq < 0:
             seq = self.seq
             self.seq = (seq + 1) & 0xFF
+        if _v2_finish is not None and not self.mavlink1:
+            # the board: header, truncation and checksum in one native call
+            signing = self.signing
+            if signing is not None:
+                signed = signing.key is not None
+            b[2] = IFLAG_SIGNED if signed else 0
+            b[6] = self.compid
+            n = _v2_finish(b, entry[3], msgid, seq | (entry[1] << 8) | (self.sysid << 16))
+            if signed:
+                n = self.signing.sign(b, n)  # type: ignore[union-attr]
+            self.sent += 1
+            return n
         if self.mavlink1:
             plen = entry[2]
             b[0] = STX_V1

@@ -123,15 +123,30 @@ class Parser:
             if n == 0:
                 b = data[i]
                 if b == _STX_V2 and i + _HEADER_V2 <= end:
-                    # a MAVLink 2 header all here: when the whole frame is
-                    # too, take it in one copy (the checks are _run's)
-                    entry = TABLE.get(data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16))
+                    # A MAVLink 2 header all here: when the whole frame is
+                    # too, it is taken in one copy and, valid, delivered
+                    # straight away; anything else is left to _run (which
+                    # checks the same and counts).
+                    msgid = data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16)
+                    entry = TABLE.get(msgid)
                     if entry is not None:
-                        k = _HEADER_V2 + 2 + data[i + 1] + (_SIGNATURE_LEN if data[i + 2] & 1 else 0)
+                        plen = data[i + 1]
+                        flags = data[i + 2]
+                        k = _HEADER_V2 + 2 + plen + (_SIGNATURE_LEN if flags & 1 else 0)
                         if i + k <= end:
                             buf[0:k] = data[i:i + k]
                             i += k
                             self._n = k
+                            if not flags & 0xFE and plen <= entry[3]:
+                                e = _HEADER_V2 + plen
+                                lo = buf[e]
+                                buf[e] = entry[1]
+                                c = _crc(_CRC_INIT, buf, 1, e + 1)
+                                buf[e] = lo
+                                if lo == (c & 0xFF) and buf[e + 1] == (c >> 8):
+                                    self._flen = k
+                                    self._deliver(True, _HEADER_V2, msgid, entry, plen)
+                                    return i
                             self._need = _HEADER_V2
                             if self._run():
                                 return i
@@ -266,15 +281,19 @@ class Parser:
         self.entry = entry
         self.mavlink1 = not v2
         if v2:
-            self.seq = buf[4]
-            self.sysid = buf[5]
-            self.compid = buf[6]
-            self.signed = (buf[2] & 1) == 1
+            seq = buf[4]
+            sysid = buf[5]
+            compid = buf[6]
+            signed = (buf[2] & 1) == 1
         else:
-            self.seq = buf[2]
-            self.sysid = buf[3]
-            self.compid = buf[4]
-            self.signed = False
+            seq = buf[2]
+            sysid = buf[3]
+            compid = buf[4]
+            signed = False
+        self.seq = seq
+        self.sysid = sysid
+        self.compid = compid
+        self.signed = signed
         self.length = plen
         self.frame_len = flen
         p = self.payload
@@ -285,13 +304,20 @@ class Parser:
             p[i] = 0
         self._dirty = plen
         self.sig_ok = False
-        if self.signed:
+        if signed:
             s = self.signing
             if s is not None and s.key is not None:
-                self.sig_ok = s.verify(buf, flen, self.sysid, self.compid)
+                self.sig_ok = s.verify(buf, flen, sysid, compid)
                 if not self.sig_ok:
                     self.bad_signature += 1
-        self._count_sequence()
+        # sequence gaps: most frames come from the sender of the one before
+        i = self._last_src
+        last = self._last
+        if self._src[i] == (sysid << 8) | compid:
+            self.lost += (seq - last[i] - 1) & 0xFF
+            last[i] = seq
+        else:
+            self._count_sequence()
         self.frames += 1
         self.ready = True
         self._drop = flen

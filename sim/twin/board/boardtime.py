@@ -277,11 +277,16 @@ def _nothing():
 def bracket_emulation(machine, bt):
     """On the emulated RP2350: the twin's ``machine`` and clock are the
     board's peripherals and timer, not its firmware: exclude their Python
-    from the charged instructions, and charge the bus time of I2C transfers."""
+    from the charged instructions, and charge the bus time of I2C transfers.
+
+    The wrappers take the wrapped function's own arguments, not ``*args``
+    and ``**kwargs``: those build a tuple and a dict at every call, before
+    the bracket opens, so the call would be charged for the twin's garbage
+    (and the first allocation after a collection searches the heap)."""
     xb = emuboard.exclude_begin
     xe = emuboard.exclude_end
 
-    def bracket(f):
+    def any_args(f):   # set-up calls (constructors' init): rare
         def call(*a, **kw):
             xb()
             try:
@@ -290,20 +295,87 @@ def bracket_emulation(machine, bt):
                 xe()
         return call
 
-    for name in ("ticks_us", "ticks_ms", "ticks_cpu", "sleep_us", "sleep_ms", "sleep", "time", "time_ns",
-                 "advance", "catch_up"):
-        setattr(vclock, name, bracket(getattr(vclock, name)))
-    for cls, names in ((machine.Pin, ("init", "value", "on", "off", "high", "low", "toggle")),
-                       (machine.PWM, ("init", "freq", "duty_u16", "duty_ns", "deinit")),
-                       (machine.UART, ("init", "any", "readinto", "read", "readline", "write", "txdone",
-                                       "flush")),
-                       (machine.ADC, ("read_u16",)),
-                       (machine.WDT, ("feed",)),
-                       (machine.I2C, ("scan", "writevto"))):
-        for name in names:
-            setattr(cls, name, bracket(getattr(cls, name)))
-    for name in ("reset_cause", "unique_id", "freq", "idle", "disable_irq", "enable_irq"):
-        setattr(machine, name, bracket(getattr(machine, name)))
+    def f0(f):
+        def call():
+            xb()
+            try:
+                return f()
+            finally:
+                xe()
+        return call
+
+    def f1(f, default):
+        def call(a=default):
+            xb()
+            try:
+                return f(a)
+            finally:
+                xe()
+        return call
+
+    def m0(f):
+        def call(self):
+            xb()
+            try:
+                return f(self)
+            finally:
+                xe()
+        return call
+
+    def m1(f, default):
+        def call(self, a=default):
+            xb()
+            try:
+                return f(self, a)
+            finally:
+                xe()
+        return call
+
+    def m2(f, default):
+        def call(self, a, b=default):
+            xb()
+            try:
+                return f(self, a, b)
+            finally:
+                xe()
+        return call
+
+    def m3(f, d1, d2):
+        def call(self, a, b=d1, c=d2):
+            xb()
+            try:
+                return f(self, a, b, c)
+            finally:
+                xe()
+        return call
+
+    for name in ("ticks_us", "ticks_ms", "ticks_cpu", "time", "time_ns", "catch_up"):
+        setattr(vclock, name, f0(getattr(vclock, name)))
+    for name in ("sleep_us", "sleep_ms", "sleep", "advance"):
+        setattr(vclock, name, f1(getattr(vclock, name), 0))
+    Pin, PWM, UART = machine.Pin, machine.PWM, machine.UART
+    Pin.init = any_args(Pin.init)
+    Pin.value = m1(Pin.value, None)
+    for name in ("on", "off", "high", "low", "toggle"):
+        setattr(Pin, name, m0(getattr(Pin, name)))
+    PWM.init = any_args(PWM.init)
+    for name in ("freq", "duty_u16", "duty_ns"):
+        setattr(PWM, name, m1(getattr(PWM, name), None))
+    PWM.deinit = m0(PWM.deinit)
+    UART.init = any_args(UART.init)
+    for name in ("any", "readline", "txdone", "flush"):
+        setattr(UART, name, m0(getattr(UART, name)))
+    UART.read = m1(UART.read, -1)
+    UART.readinto = m2(UART.readinto, -1)
+    UART.write = m3(UART.write, 0, -1)
+    machine.ADC.read_u16 = m0(machine.ADC.read_u16)
+    machine.WDT.feed = m0(machine.WDT.feed)
+    machine.I2C.scan = m0(machine.I2C.scan)
+    machine.I2C.writevto = any_args(machine.I2C.writevto)
+    for name in ("reset_cause", "unique_id", "idle", "disable_irq"):
+        setattr(machine, name, f0(getattr(machine, name)))
+    machine.freq = f1(machine.freq, None)
+    machine.enable_irq = f1(machine.enable_irq, 0)
 
     charge = emuboard.charge_us
     i2c_us = bt.i2c_us
