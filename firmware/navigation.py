@@ -3,10 +3,12 @@
 ``Navigation`` owns the vehicle's ``Estimator`` (``shared/estimator``) and
 feeds it from the drivers, as two scheduler tasks:
 
-- ``step()`` (100 Hz): one IMU burst and one magnetometer burst, mapped from
-  the chips' axes to the body axes (x along wing 1, z down when level), then
-  ``Estimator.imu`` / ``mag``; a failed read still gives the estimator the
-  time (``check``), which is how it notices a silent IMU;
+- ``step()`` (100 Hz): one IMU burst, and every fourth step (25 Hz, the
+  rate the estimator fuses it at: ``MAG_STEPS``) one magnetometer burst,
+  mapped from the chips' axes to the body axes (x along wing 1, z down when
+  level), then ``Estimator.imu`` / ``mag``; a failed IMU read still gives
+  the estimator the time (``check``), which is how it notices a silent IMU;
+  a failed magnetometer read is tried again at the next step;
 - ``depth_step()`` (every 20 ms): the MS5837 state machine; a fresh pressure
   goes to ``Estimator.depth`` with the middle of its conversion as its time.
   It also counts the pressures the estimator's gate rejected in a row
@@ -36,9 +38,11 @@ surface; arming under water (estimated depth over 1 m) keeps it.
 
 from array import array
 
+from roboray.firmware.drivers.health import FROZEN_SAMPLES
 from roboray.firmware.drivers.lis3mdl import MAG_SCALE
 from roboray.firmware.drivers.lsm6dsox import ACCEL_SCALE, GYRO_SCALE
 from roboray.shared.estimator import Estimator
+from roboray.shared.estimator.estimator import JOB_NONE
 from roboray.shared.estimator import health as eh
 from roboray.shared.estimator.attitude import Attitude
 from roboray.shared.estimator.descent_model import TAU_S
@@ -52,6 +56,9 @@ except ImportError:  # CPython
         return x
 
 _G = 9.80665
+#: The magnetometer is read every this many steps (25 Hz), as often as the
+#: estimator fuses it (``Estimator``'s ``mag_period_s``).
+MAG_STEPS = const(4)
 _WATER = 1000.0
 _SURFACE_MAX_M = 1.0
 
@@ -149,6 +156,10 @@ class Navigation:
                        + [-MAG_SCALE if rot[k][1] else MAG_SCALE for k in range(3)])
         #: The last IMU and magnetometer sample in body axes: accel (m/s^2), gyro (rad/s), field (gauss).
         self.body = array("f", [0.0] * 9)
+        self._mag_wait = 0
+        # the magnetometer's frozen-output test over the same 0.2 s as at
+        # 100 Hz (its own noise makes 5 exact repeats in a row impossible)
+        mag.health.frozen_samples = FROZEN_SAMPLES // MAG_STEPS
         self._gnd = params.index("BARO1_GND_PRESS")
         self._delay_i = params.index("VISO_DELAY_MS")
         density = _WATER * _p(params, "BARO_SPEC_GRAV")
@@ -157,7 +168,8 @@ class Navigation:
             horizontal=Horizontal(tau=TAU_S),
             imu_position=(_p(params, "INS_POS1_X"), _p(params, "INS_POS1_Y"), _p(params, "INS_POS1_Z")),
             port_position=(_p(params, "BARO_POS_X"), _p(params, "BARO_POS_Y"), _p(params, "BARO_POS_Z")),
-            fluid_density=density, surface_pressure_pa=params.get(self._gnd))
+            fluid_density=density, surface_pressure_pa=params.get(self._gnd),
+            mag_period_s=MAG_STEPS * 0.01)
         self._rho_g = density * _G
         self.configure_compass()
         self.imu_samples = 0
@@ -179,15 +191,16 @@ class Navigation:
 
     # ------------------------------------------------------------ tasks
     def step(self):
-        """Scheduler task (100 Hz): IMU and magnetometer to the estimator."""
+        """Scheduler task (100 Hz): the IMU to the estimator, and every
+        ``MAG_STEPS``-th call the magnetometer."""
         est = self.est
         t = self._clock.ticks_us()
-        b = self.body
         i = self._raw_i
         k = self._scale
         # Straight-line: a loop or a helper call per axis costs more than the
         # arithmetic on MicroPython.
         imu = self.imu
+        b = self.body
         if imu.read():
             r = imu.raw
             ax = r[i[0]] * k[0]
@@ -206,8 +219,16 @@ class Navigation:
             self.imu_samples += 1
         else:
             est.check(t)
+        # Due, the magnetometer waits (two steps at most) for a step in
+        # which the estimator had no job (``Estimator.job``): no step then
+        # carries both its burst and one of the dearer jobs.
+        n = self._mag_wait - 1
+        if n > 0 or (n > -2 and est.job != JOB_NONE):
+            self._mag_wait = n
+            return
         mag = self.mag
         if mag.read():
+            self._mag_wait = MAG_STEPS
             r = mag.raw
             mx = r[i[6]] * k[6]
             my = r[i[7]] * k[7]
@@ -216,6 +237,8 @@ class Navigation:
             b[7] = my
             b[8] = mz
             est.mag(t, mx, my, mz)
+        else:
+            self._mag_wait = 1    # try again next step
 
     def depth_step(self):
         """Scheduler task (every 20 ms): the pressure sensor to the estimator."""

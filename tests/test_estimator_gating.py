@@ -110,7 +110,9 @@ def test_a_disturbed_magnetometer_is_rejected(scenario):
                 hits += 1
     _, out = _replay(p, bad, start + 60)
     rejected = out[-1][1][H.STATUS_MAG_REJECTS] - ref[start + 59][1][H.STATUS_MAG_REJECTS]
-    assert rejected >= 10  # every disturbed sample that got a fusion slot
+    # every disturbed sample that got a fusion slot: 0.2 s of them at the
+    # estimator's 25 Hz magnetometer fusion (MAG_PERIOD_S)
+    assert rejected >= 5
     # heading held by the gyro meanwhile
     yaw_change = np.degrees(np.angle(np.exp(1j * (out[-1][3][2] - ref[start + 59][3][2]))))
     assert abs(yaw_change) < 0.2

@@ -57,8 +57,12 @@ class Health:
         Failures by code, indexed like ``ERRORS``.
     """
 
-    def __init__(self, clock, timeout_ms, max_consecutive=5):
+    def __init__(self, clock, timeout_ms, max_consecutive=5, frozen_samples=FROZEN_SAMPLES):
         self._clock = clock
+        #: Repeats in a row that freeze the part (and moving samples that
+        #: bring it back): ``FROZEN_SAMPLES``, fewer for a part read less
+        #: often (the navigation reads the magnetometer at 25 Hz).
+        self.frozen_samples = frozen_samples
         self.timeout_ms = timeout_ms
         self.max_consecutive = max_consecutive
         self.samples = 0
@@ -93,16 +97,31 @@ class Health:
         if same:
             self.frozen_run += 1
             self.live_run = 0
-            if self.frozen_run >= FROZEN_SAMPLES:
+            if self.frozen_run >= self.frozen_samples:
                 self.is_frozen = True
         elif self.is_frozen:
             self.frozen_run = 0
             self.live_run += 1
-            if self.live_run >= FROZEN_SAMPLES:
+            if self.live_run >= self.frozen_samples:
                 self.is_frozen = False
         else:
             self.frozen_run = 0
         return self.is_frozen
+
+    def fresh(self, same):
+        """A new sample in one call (a driver's read, at its sample rate):
+        ``frozen(same)``, then ``good()``, or ``bad(ERR_FROZEN)`` while
+        frozen. True when the sample is good."""
+        if same or self.is_frozen:
+            if self.frozen(same):
+                self.bad(ERR_FROZEN)
+                return False
+        else:
+            self.frozen_run = 0
+        self.samples += 1
+        self.consecutive = 0
+        self.last_good_ms = self._clock.ticks_ms()
+        return True
 
     def age_ms(self):
         """Milliseconds since the last good sample (or since start-up)."""

@@ -13,11 +13,14 @@ when bit 7 of the sub-address is set, so the burst starts at ``0x27 | 0x80``.
 Results in the sensor's axes: ``raw`` counts [temp, x, y, z] with
 ``MAG_SCALE`` (what the firmware's navigation uses), ``mag_gauss`` (gauss,
 as MAVLink's SCALED_IMU and the telemetry carry it: the last sample scaled
-when asked for, three boxed floats) and ``temp_c``. A read boxes no float
-(two with a new temperature). ``overruns`` counts samples the chip
-overwrote unread.
+when asked for, three boxed floats) and ``temp_c`` (the last temperature,
+scaled when asked for, one). A read boxes no float. ``overruns`` counts
+reads that found a sample the chip had overwritten unread (every read when
+the firmware reads at 25 Hz: ``firmware/navigation.py``).
 ``health`` as in the LSM6DSOX driver: bus errors, no new sample, a
-temperature outside the part's range, frozen outputs (x, y, z); after 10
+temperature outside the part's range, frozen outputs (x, y, z); its
+time-out is 250 ms (the firmware reads the part at 25 Hz, and a 70 ms
+collection can fall between two reads); after 10
 failed reads in a row the
 configuration is written again.
 """
@@ -31,7 +34,7 @@ except ImportError:  # CPython
         return x
 
 from roboray.firmware.drivers.registers import Registers
-from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, Health
+from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
 
 ADDRESS = const(0x1C)
 
@@ -73,14 +76,14 @@ class LIS3MDL(Registers):
 
     PART = "LIS3MDL"
 
-    def __init__(self, i2c, address=ADDRESS, clock=None, timeout_ms=100):
+    def __init__(self, i2c, address=ADDRESS, clock=None, timeout_ms=250):
         if clock is None:
             import time as clock
         Registers.__init__(self, i2c, address)
         self._clock = clock
         self._buf = bytearray(9)
         self._gauss = array("f", [0.0, 0.0, 0.0])
-        self.temp_c = array("f", [25.0])
+        self._temp_c = array("f", [25.0])
         self.raw = array("h", [0] * 4)
         self.health = Health(clock, timeout_ms)
         self.overruns = 0
@@ -130,19 +133,22 @@ class LIS3MDL(Registers):
         m1 = ((b[3] | (b[4] << 8)) ^ 0x8000) - 0x8000
         m2 = ((b[5] | (b[6] << 8)) ^ 0x8000) - 0x8000
         # a live part's noise changes some count every sample (health.py)
-        frozen = health.frozen(m0 == raw[1] and m1 == raw[2] and m2 == raw[3])
+        same = m0 == raw[1] and m1 == raw[2] and m2 == raw[3]
         raw[1] = m0
         raw[2] = m1
         raw[3] = m2
-        if frozen:
-            health.bad(ERR_FROZEN)
+        if not health.fresh(same):  # frozen (counted there)
             self._recover()
             return False
-        if t != raw[0]:
-            raw[0] = t
-            self.temp_c[0] = 25.0 + t * TEMP_SCALE
-        health.good()
+        raw[0] = t
         return True
+
+    @property
+    def temp_c(self):
+        """The last temperature, C (scaled when asked for: one boxed float)."""
+        c = self._temp_c
+        c[0] = 25.0 + self.raw[0] * TEMP_SCALE
+        return c
 
     @property
     def mag_gauss(self):

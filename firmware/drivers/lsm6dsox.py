@@ -12,10 +12,10 @@ decoded with shifts, in the sensor's axes:
 - ``accel`` (m/s^2, specific force: +9.81 on z lying flat) and ``gyro``
   (rad/s): the last sample scaled to SI when asked for (each a buffer made
   once, filled on reading the attribute);
-- ``temp_c`` (C, refreshed when the chip flags a new one).
+- ``temp_c`` (C, the last one the chip flagged new, scaled when asked for).
 
-A read boxes no float (two with a new temperature); asking for ``accel``
-or ``gyro`` boxes three.
+A read boxes no float; asking for ``accel`` or ``gyro`` boxes three,
+``temp_c`` one.
 ``health`` gets a bus error, a status byte with its reserved bits set or a
 temperature outside the part's range (impossible values), no new sample
 (stale), or new samples whose six output counts all repeat the last ones
@@ -33,7 +33,7 @@ except ImportError:  # CPython
         return x
 
 from roboray.firmware.drivers.registers import Registers
-from roboray.firmware.drivers.health import ERR_BUS, ERR_FROZEN, ERR_RANGE, ERR_STALE, Health
+from roboray.firmware.drivers.health import ERR_BUS, ERR_RANGE, ERR_STALE, Health
 
 ADDRESS = const(0x6A)
 
@@ -81,7 +81,8 @@ class LSM6DSOX(Registers):
         self._buf = bytearray(16)
         self._accel = array("f", [0.0, 0.0, 0.0])
         self._gyro = array("f", [0.0, 0.0, 0.0])
-        self.temp_c = array("f", [25.0])
+        self._temp_c = array("f", [25.0])
+        self._temp = 0     # counts of the last temperature flagged new (0 = 25 C)
         self.raw = array("h", [0] * 7)
         self.health = Health(clock, timeout_ms)
         self._check_identity(_WHO_AM_I, _ID)
@@ -132,8 +133,8 @@ class LSM6DSOX(Registers):
         a1 = ((b[12] | (b[13] << 8)) ^ 0x8000) - 0x8000
         a2 = ((b[14] | (b[15] << 8)) ^ 0x8000) - 0x8000
         # a live part's noise changes some count every sample (health.py)
-        frozen = health.frozen(a0 == raw[4] and g0 == raw[1] and a1 == raw[5]
-                               and a2 == raw[6] and g1 == raw[2] and g2 == raw[3])
+        same = (a0 == raw[4] and g0 == raw[1] and a1 == raw[5]
+                and a2 == raw[6] and g1 == raw[2] and g2 == raw[3])
         raw[0] = t
         raw[1] = g0
         raw[2] = g1
@@ -141,14 +142,19 @@ class LSM6DSOX(Registers):
         raw[4] = a0
         raw[5] = a1
         raw[6] = a2
-        if frozen:
-            health.bad(ERR_FROZEN)
+        if not health.fresh(same):  # frozen (counted there)
             self._recover()
             return False
         if status & _TDA:
-            self.temp_c[0] = 25.0 + t * TEMP_SCALE
-        health.good()
+            self._temp = t
         return True
+
+    @property
+    def temp_c(self):
+        """The last temperature, C (scaled when asked for: one boxed float)."""
+        c = self._temp_c
+        c[0] = 25.0 + self._temp * TEMP_SCALE
+        return c
 
     @property
     def accel(self):

@@ -11,7 +11,8 @@ quaternion normalisation, descent-model gain), a pending magnetometer
 sample. A cycle in which every sensor arrives costs one IMU step plus the
 dearest job, and the rest follow in the next steps, each corrected for its
 age through its time stamp. A magnetometer sample still waiting when the
-next one arrives is replaced (the newer wins).
+next one arrives is replaced (the newer wins); one is fused at most every
+``mag_period_s`` (25 Hz; the firmware reads the chip at that rate).
 """
 
 import math

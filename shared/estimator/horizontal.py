@@ -75,7 +75,11 @@ class Horizontal:
         self._g2 = gate * gate
         self._reacquire = reacquire
         self._inv_tau = 1.0 / tau if tau > 0.0 else 0.0
+        self._lag = tau > 0.0
         self._mk = 0.0
+        self._gx = 0.0
+        self._gy = 0.0
+        self._glide = False
         self._var0 = (pos_var0, bias_var0)
         self._n = history
         self._t = array("i", [0] * history)
@@ -92,6 +96,7 @@ class Horizontal:
         self._mk = -glide_gain
         self._gx = glide_x
         self._gy = glide_y
+        self._glide = glide_x != 0.0 or glide_y != 0.0
 
     def predict(self, t_us, dt, R, w):
         """Advance by ``dt`` s with the body -> NED rotation ``R`` (9, row
@@ -102,15 +107,23 @@ class Horizontal:
         if r22 < 0.17:  # past 80 deg of tilt the glide model means nothing
             r22 = 0.17
         g = w * self._mk / r22
-        gx = w * self._gx
-        gy = w * self._gy
-        a = dt * self._inv_tau
-        if a > 1.0 or a <= 0.0:
-            a = 1.0
-        mn = x[4]
-        me = x[5]
-        mn = mn + (g * R[2] + gx * R[0] + gy * R[1] - mn) * a
-        me = me + (g * R[5] + gx * R[3] + gy * R[4] - me) * a
+        # The floats a step boxes are its cost on the board: the terms of a
+        # differential fold and of the lag only when there are any.
+        if self._glide:
+            gx = w * self._gx
+            gy = w * self._gy
+            mn = g * R[2] + gx * R[0] + gy * R[1]
+            me = g * R[5] + gx * R[3] + gy * R[4]
+        else:
+            mn = g * R[2]
+            me = g * R[5]
+        if self._lag:
+            a = dt * self._inv_tau
+            if 0.0 < a < 1.0:
+                n0 = x[4]
+                e0 = x[5]
+                mn = n0 + (mn - n0) * a
+                me = e0 + (me - e0) * a
         x[4] = mn
         x[5] = me
         v = self.v
