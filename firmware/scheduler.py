@@ -31,8 +31,9 @@ sector of the Pico 2's flash suspends execution for ~45 ms) says so first
 with ``expect_delay_ms(ms)``, as ArduPilot's ``expect_delay_ms``: a slot
 that ends late within what was announced is counted in ``stalls``, not as
 an overrun, so neither the overrun failsafe nor the watchdog's hunger
-takes a planned stall for a loop in trouble; the slots it spanned are
-still counted in ``skipped``.
+takes a planned stall for a loop in trouble; the slots it spanned, and
+the one it ended in, are counted in ``skipped``, and the loop resumes on
+its grid at the next slot's start.
 
 Timing costs one clock reading a task: a task's time runs from the reading
 that ended the one before it (the slot's start for the first), so it
@@ -257,12 +258,15 @@ class Scheduler:
             expected = self._expect_us
             self._expect_us = 0
             if late >= 0:
+                missed = late // period
                 if late < expected:
+                    # a planned stall: back on the grid at the next slot's
+                    # start rather than at once and late into the next
                     self.stalls += 1
+                    missed += 1
                 else:
                     self.overruns += 1
                     self.consecutive_overruns += 1
-                missed = late // period
                 if missed:
                     self.skipped += missed
                     self.slot += missed

@@ -95,9 +95,8 @@ def test_a_sensor_whose_outputs_freeze_mid_descent_is_caught(fault, name, bit):
 
 
 def test_warnings_change_nothing_but_are_reported_and_an_action_set_off_raises_nothing():
-    # 500 us a clock reading: the loop overruns, short of starving the watchdog
-    # (at 600 us the depth task, starved of slots, fails its sensor after 5 s)
-    r = fly("mag-garbage@12", "battery-sag@12", "overload:500@15", "leak@16",
+    # 600 us a clock reading: the loop overruns, short of starving the watchdog
+    r = fly("mag-garbage@12", "battery-sag@12", "overload:600@15", "leak@16",
             params={"BATT_LOW_TIMER": 2, "FS_DEPTH_MAX": 2.0, "FS_LEAK_ENABLE": 0})
     assert set(names(r)) == {"compass", "battery low", "loop overruns", "max depth"}
     # the pack crosses 6.6 V 1.6 s into the sag, the driver's 1 s filter a

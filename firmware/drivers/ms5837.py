@@ -287,7 +287,10 @@ class MS5837:
             self._state = _IDLE
             return fresh
         self._state = nxt
-        self._t_start = now
+        # the conversion started when the command went out, after this
+        # call's work and the read's bus time: timed from `now` it would be
+        # collected that much too early, and the part answers 0 (not ready)
+        self._t_start = clock.ticks_us()
         return fresh
 
     def _sample(self, d1_start):

@@ -106,8 +106,10 @@ class Options:
     operator: list = field(default_factory=list)
     #: The board's clock (MHz): compute time scales with 150 / cpu_mhz.
     cpu_mhz: float = 150.0
-    #: None: counted on rp2350-emu, free elsewhere (until the firmware fits
-    #: a Pico 2's loop the model would only show overruns)
+    #: None: counted on rp2350-emu, free elsewhere. The model is not the
+    #: default yet: with the collector's stalls charged, the estimator misses
+    #: IMU samples at the bottom impact and latches a depth failsafe
+    #: (docs/design/board-time.md, "What is left")
     board_time: Optional[str] = None
     #: A board time model to charge instead of the calibrated one (tests:
     #: ``{"tasks": {name: [us a call, by mode]}, "gc_us": us}``).

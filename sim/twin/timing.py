@@ -88,6 +88,11 @@ class BoardTimes:
         gcs = us[kind == GC] if (kind == GC).any() or "gc" not in names else us[kind == names.index("gc")]
         flash = us[kind == FLASH]
         out = {"tasks": tasks, "gc": _stats(gcs), "slots": int(len(slots))}
+        # the slots without a collection or a flash stall: the loop's own work
+        quiet = _quiet_slots(kind, us, names)
+        if len(quiet):
+            out["slot_p99_ms_no_stall"] = round(float(np.percentile(quiet, 99)) / 1000.0, 3)
+            out["slot_max_ms_no_stall"] = round(float(quiet.max()) / 1000.0, 3)
         if len(slots):
             out.update({
                 "slot_p50_ms": round(float(np.percentile(slots, 50)) / 1000.0, 3),
@@ -100,6 +105,22 @@ class BoardTimes:
         out["flash_stalls"] = int(len(flash))
         out["flash_stall_ms"] = round(float(flash.sum()) / 1000.0, 1) if len(flash) else 0.0
         return out
+
+
+def _quiet_slots(kind: np.ndarray, us: np.ndarray, names: list) -> np.ndarray:
+    """The SLOT records of slots that ran neither the "gc" task nor a flash
+    stall (a slot's records end with its SLOT record)."""
+    gc_kind = names.index("gc") if "gc" in names else GC
+    keep = []
+    stalled = False
+    for k, u in zip(kind.tolist(), us.tolist()):
+        if k == SLOT:
+            if not stalled:
+                keep.append(u)
+            stalled = False
+        elif k == gc_kind or k == FLASH or k == GC:
+            stalled = True
+    return np.asarray(keep)
 
 
 def _stats(us: np.ndarray) -> dict:

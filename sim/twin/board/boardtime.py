@@ -203,12 +203,14 @@ class BoardTime:
         bt = self
 
         def run():
+            f0 = bt.flash_us
             try:
                 fn()
             finally:
                 c = costs[bt._modes.mode]
                 bt.busy = (bt.busy + c) & _MASK
-                rec(i, c)
+                # the call's time as the board's: its cost and its flash stalls
+                rec(i, c + bt.flash_us - f0)
         return run
 
     def _wrap_collect(self, collect, sched, emu, collects):
