@@ -70,4 +70,6 @@ def test_a_target_landing_with_the_board_code_in_romfs():
     r = run(Options(scenario="target-landing", interpreter="rp2350-emu", romfs=True))
     assert r["interpreter"].endswith("(board code in ROMFS)")
     assert r["landed"] and r["landing_error_m"] < 0.25
-    assert [m for _, m in r["modes"]][-1] == "TARGET" and r["resets"] == 0
+    assert "TARGET" in [m for _, m in r["modes"]] and r["resets"] == 0
+    # the loop keeps its slots: the collections are its only stalls
+    assert r["overruns"] == 0 and r["board_time"]["slot_max_ms_no_stall"] < 10.0

@@ -250,6 +250,9 @@ def do_bench_board(args: argparse.Namespace) -> None:
         "slot_p50_ms": bt.get("slot_p50_ms"),
         "slot_p99_ms": bt.get("slot_p99_ms"),
         "slot_max_ms": bt.get("slot_max_ms"),
+        "slot_p99_ms_no_stall": bt.get("slot_p99_ms_no_stall"),
+        "slot_max_ms_no_stall": bt.get("slot_max_ms_no_stall"),
+        "planned_stalls": report["planned_stalls"],
         "load_pct": bt.get("load_pct"),
         "overruns": report["overruns"],
         "skipped_slots": report["skipped_slots"],
@@ -293,9 +296,11 @@ def do_bench_board(args: argparse.Namespace) -> None:
         g = r["gc"]
         if g.get("calls") and "gc" not in r["tasks"]:
             lines.append("   %-10s %6d %9.1f %9.1f %9d" % ("gc", g["calls"], g["mean_us"], g["p99_us"], g["max_us"]))
-        lines.append("slot p50 %s ms, p99 %s ms, max %s ms; load %s%%; %s overruns, %s skipped, %s resets" % (
-            r["slot_p50_ms"], r["slot_p99_ms"], r["slot_max_ms"], r["load_pct"], r["overruns"], r["skipped_slots"],
-            r["resets"]))
+        lines.append("slot p50 %s ms, p99 %s ms, max %s ms (without the collector's and flash stalls: p99 %s, max %s "
+                     "ms); load %s%%; %s overruns, %s planned stalls, %s skipped slots, %s resets" % (
+                         r["slot_p50_ms"], r["slot_p99_ms"], r["slot_max_ms"], r["slot_p99_ms_no_stall"],
+                         r["slot_max_ms_no_stall"], r["load_pct"], r["overruns"], r["planned_stalls"],
+                         r["skipped_slots"], r["resets"]))
         lines.append("one gc.collect() at the firmware's live heap: %.3f ms (live %d B + %d B emulated peripherals, "
                      "heap %d B)" % (r["gc_ms"], r["heap_live_bytes"], r["heap_live_emulation_bytes"],
                                      r["heap_size_bytes"]))

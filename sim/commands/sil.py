@@ -151,7 +151,7 @@ def do_sil(args: argparse.Namespace) -> None:
                          "%s reset(s), %s power cut(s)" % (r["overruns"], r["max_loop_ms"], r["resets"],
                                                             r["power_cuts"]))
         else:
-            lines.append("loop (%s board time at %g MHz): %s overruns, %s planned flash stalls, %s skipped slots, "
+            lines.append("loop (%s board time at %g MHz): %s overruns, %s planned stalls (collections, flash), %s skipped slots, "
                          "slot p50 %s p99 %s max %s ms, gc max %s ms, load %s%%; %s reset(s), %s power cut(s)" % (
                              "counted" if bt["source"] == "emu" else "modelled", bt["cpu_mhz"], r["overruns"],
                              r["planned_stalls"], r["skipped_slots"], r["slot_p50_ms"], r["slot_p99_ms"],
