@@ -143,6 +143,24 @@ def build_info() -> tuple[str, str]:
     return buildinfo.banner(version, revision), buildinfo.module_source(version, revision)
 
 
+def install_board_lib(lib: Path) -> Path:
+    """The board code and the twin's board modules as ``.mpy`` under ``lib``
+    (``lib/roboray/...``), with the ``build_info`` a build would write, as a
+    flashed board holds them in ``/lib``; returns ``lib``."""
+    from roboray.sim import twin
+    from roboray.tools.micropython import interpreter
+    from roboray.tools.micropython.mpycache import compiled
+
+    for host_path, board_path in interpreter.board_sources() + twin.board_sources():
+        dest = lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        dest.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
+    info = lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]
+    info.parent.mkdir(parents=True, exist_ok=True)
+    info.write_text(build_info()[1])
+    return lib
+
+
 class MicroPythonBoard:
     """The firmware on the MicroPython interpreter (WebAssembly port)."""
 
@@ -287,19 +305,12 @@ class MicroPythonUnixBoard(CPythonBoard):
     HEAP = "2M"
 
     def __init__(self, on_request: Callable[[str], str]) -> None:
-        from roboray.sim import twin
-        from roboray.tools.micropython import interpreter, unix_port
-        from roboray.tools.micropython.mpycache import compiled
+        from roboray.tools.micropython import unix_port
 
         unix_port.require()
         super().__init__(on_request)
         self.version = "micropython-unix %s" % unix_port.version()
-        self.lib = self.dir / "lib"
-        for host_path, board_path in interpreter.board_sources() + twin.board_sources():
-            dest = self.lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            dest.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
-        (self.lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]).write_text(build_info()[1])
+        self.lib = install_board_lib(self.dir / "lib")
 
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
         from roboray.sim import twin
@@ -345,24 +356,11 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
         if romfs:
             # /rom/lib/roboray/...: the same .mpy files, in the partition
             src = self.dir / "romsrc"
-            self.lib = src / "lib"
-            rp2350_emu.install_lib(self.lib)
+            self.lib = install_board_lib(src / "lib")
             self.romfs = self.dir / "romfs.img"
             self.romfs.write_bytes(rp2350_emu.make_romfs(src))
         else:
-            self._install_lib()
-
-    def _install_lib(self) -> None:
-        from roboray.sim import twin
-        from roboray.tools.micropython import interpreter
-        from roboray.tools.micropython.mpycache import compiled
-
-        self.lib = self.dir / "lib"
-        for host_path, board_path in interpreter.board_sources() + twin.board_sources():
-            dest = self.lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            dest.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
-        (self.lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]).write_text(build_info()[1])
+            self.lib = install_board_lib(self.dir / "lib")
 
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
         from roboray.sim import twin

@@ -177,20 +177,9 @@ def version() -> str:
 def install_lib(dest) -> Path:
     """Board code and the twin's board modules as ``.mpy`` under ``dest``
     (``dest/roboray/...``), as the twin installs them; returns ``dest``."""
-    from roboray.sim import twin
-    from roboray.sim.twin.runner import BUILD_INFO_PATH, build_info
-    from roboray.tools.micropython import interpreter
-    from roboray.tools.micropython.mpycache import compiled
+    from roboray.sim.twin.runner import install_board_lib
 
-    lib = Path(dest)
-    for host_path, board_path in interpreter.board_sources() + twin.board_sources():
-        target = lib / board_path[len(interpreter.BOARD_LIB) + 1:-3]
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.with_suffix(".mpy").write_bytes(compiled(host_path, board_path))
-    info = lib / BUILD_INFO_PATH[len(interpreter.BOARD_LIB) + 1:]
-    info.parent.mkdir(parents=True, exist_ok=True)
-    info.write_text(build_info()[1])
-    return lib
+    return install_board_lib(Path(dest))
 
 
 def make_romfs(src_dir, mpy_cross: bool = True) -> bytes:
