@@ -214,51 +214,14 @@ class Attitude:
         hx = (cx + e[0]) * h
         hy = (cy + e[1]) * h
         hz = (cz + e[2]) * h
-        # q + 1/2 dt q (x) (0, omega) (quat.turn), then R from q
-        # (quat.to_matrix), both written out here: a call costs as much as
-        # three or four float operations on the board. First order; |q|^2
-        # grows by (|omega| dt / 2)^2 a step (6e-5 at 1.5 rad/s and 100 Hz),
-        # and normalize() runs at 10 Hz. Until then R from the unnormalised
-        # q is (1 + eps) R - eps I: a direction error of eps sin(tilt),
-        # < 0.01 deg.
+        # q + 1/2 dt q (x) (0, omega): first order; |q|^2 grows by
+        # (|omega| dt / 2)^2 a step (6e-5 at 1.5 rad/s and 100 Hz), and
+        # normalize() runs at 10 Hz. Until then R from the unnormalised q is
+        # (1 + eps) R - eps I: a direction error of eps sin(tilt), < 0.01 deg.
         q = self.q
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
-        qw = w - hx * x - hy * y - hz * z
-        qx = x + hx * w + hz * y - hy * z
-        qy = y + hy * w - hz * x + hx * z
-        qz = z + hz * w + hy * x - hx * y
-        q[0] = qw
-        q[1] = qx
-        q[2] = qy
-        q[3] = qz
-        x2 = qx + qx
-        y2 = qy + qy
-        z2 = qz + qz
-        xx = qx * x2
-        yy = qy * y2
-        zz = qz * z2
-        xy = qx * y2
-        xz = qx * z2
-        yz = qy * z2
-        wx = qw * x2
-        wy = qw * y2
-        wz = qw * z2
+        quat.turn(q, hx, hy, hz)
         R = self.R
-        R[0] = 1.0 - (yy + zz)
-        R[1] = xy - wz
-        R[2] = xz + wy
-        R[3] = xy + wz
-        R[4] = 1.0 - (xx + zz)
-        R[5] = yz - wx
-        vx = xz - wy
-        vy = yz + wx
-        vz = 1.0 - (xx + yy)
-        R[6] = vx
-        R[7] = vy
-        R[8] = vz
+        quat.to_matrix(R, q)
         if self._pairs:
             # the accelerometer by pairs of samples (see ``pairs``): the
             # first is kept, the correction e of the last pair holds
@@ -283,6 +246,9 @@ class Attitude:
             else:
                 ka = self._ka
                 kb = self._kb * dt
+            vx = R[6]   # gravity's direction in the body frame, R's last row
+            vy = R[7]
+            vz = R[8]
             ex = (vy * az - vz * ay) * ka
             ey = (vz * ax - vx * az) * ka
             ez = (vx * ay - vy * ax) * ka
