@@ -175,28 +175,36 @@ def test_lost_frames_are_counted_from_sequence_numbers():
     assert p.frames == 270 and p.lost == 30
 
 
+#: The frames both sides build: the same source on the emulated board and here.
+_BUILD_FRAMES = r'''
+def build_frames(frame, M, Signing, struct):
+    out = []
+    for key in (None, bytes(range(32))):
+        s = None
+        if key is not None:
+            s = Signing(key)
+            s.timestamp = 123456789
+        w = frame.Writer(7, 3, s)
+        struct.pack_into(M.ATTITUDE_FMT, w.buf, w.payload, 1234, 0.1, -0.2, 0.3, 0.0, 0.0, 0.0)
+        out.append(bytes(w.view(w.finish(M.MSG_ATTITUDE))))
+        struct.pack_into(M.HEARTBEAT_FMT, w.buf, w.payload, 0, 0, 0, 0, 0, 0)
+        out.append(bytes(w.view(w.finish(M.MSG_HEARTBEAT))))
+        struct.pack_into(M.SERVO_OUTPUT_RAW_FMT, w.buf, w.payload, 5, 1500, 1501, 1502, 1503, *([0] * 13))
+        out.append(bytes(w.view(w.finish(M.MSG_SERVO_OUTPUT_RAW))))
+        w1 = frame.Writer(7, 3, None, mavlink1=True)
+        struct.pack_into(M.HEARTBEAT_FMT, w1.buf, w1.payload, 1, 2, 3, 4, 5, 6)
+        out.append(bytes(w1.view(w1.finish(M.MSG_HEARTBEAT))))
+    return out
+'''
+
 _NATIVE_FRAMES = r'''
 import struct
 from roboray.shared.mavlink import messages as M, frame, crc
 from roboray.shared.mavlink.parser import Parser
 from roboray.shared.mavlink.signing import Signing
 print("NATIVE", crc.v2_finish is not None and crc.viper_accumulate is not None)
-out = []
-for key in (None, bytes(range(32))):
-    s = None
-    if key is not None:
-        s = Signing(key)
-        s.timestamp = 123456789
-    w = frame.Writer(7, 3, s)
-    struct.pack_into(M.ATTITUDE_FMT, w.buf, w.payload, 1234, 0.1, -0.2, 0.3, 0.0, 0.0, 0.0)
-    out.append(bytes(w.view(w.finish(M.MSG_ATTITUDE))))
-    struct.pack_into(M.HEARTBEAT_FMT, w.buf, w.payload, 0, 0, 0, 0, 0, 0)
-    out.append(bytes(w.view(w.finish(M.MSG_HEARTBEAT))))
-    struct.pack_into(M.SERVO_OUTPUT_RAW_FMT, w.buf, w.payload, 5, 1500, 1501, 1502, 1503, *([0] * 13))
-    out.append(bytes(w.view(w.finish(M.MSG_SERVO_OUTPUT_RAW))))
-    w1 = frame.Writer(7, 3, None, mavlink1=True)
-    struct.pack_into(M.HEARTBEAT_FMT, w1.buf, w1.payload, 1, 2, 3, 4, 5, 6)
-    out.append(bytes(w1.view(w1.finish(M.MSG_HEARTBEAT))))
+''' + _BUILD_FRAMES + r'''
+out = build_frames(frame, M, Signing, struct)
 p = Parser()
 for f in out:
     i = 0
@@ -220,20 +228,7 @@ def test_the_boards_native_framing_and_checksum_give_the_same_bytes(tmp_path):
     status, out = rp2350_emu.run(_NATIVE_FRAMES, tmp_path, path=(str(lib),), timeout=120)
     assert status == 0, out
     assert "NATIVE True" in out and "PARSED 8 0 0" in out
-    want = []
-    for key in (None, bytes(range(32))):
-        s = None
-        if key is not None:
-            s = Signing(key)
-            s.timestamp = 123456789
-        w = frame.Writer(7, 3, s)
-        struct.pack_into(M.ATTITUDE_FMT, w.buf, w.payload, 1234, 0.1, -0.2, 0.3, 0.0, 0.0, 0.0)
-        want.append(bytes(w.view(w.finish(M.MSG_ATTITUDE))))
-        struct.pack_into(M.HEARTBEAT_FMT, w.buf, w.payload, 0, 0, 0, 0, 0, 0)
-        want.append(bytes(w.view(w.finish(M.MSG_HEARTBEAT))))
-        struct.pack_into(M.SERVO_OUTPUT_RAW_FMT, w.buf, w.payload, 5, 1500, 1501, 1502, 1503, *([0] * 13))
-        want.append(bytes(w.view(w.finish(M.MSG_SERVO_OUTPUT_RAW))))
-        w1 = frame.Writer(7, 3, None, mavlink1=True)
-        struct.pack_into(M.HEARTBEAT_FMT, w1.buf, w1.payload, 1, 2, 3, 4, 5, 6)
-        want.append(bytes(w1.view(w1.finish(M.MSG_HEARTBEAT))))
+    ns: dict = {}
+    exec(_BUILD_FRAMES, ns)
+    want = ns["build_frames"](frame, M, Signing, struct)
     assert [bytes.fromhex(x[2:]) for x in out.splitlines() if x.startswith("F ")] == want
