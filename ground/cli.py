@@ -212,30 +212,7 @@ def do_param(args: argparse.Namespace) -> None:
         paramfile.save(rest[0], ((k, fmt_value(*values[k])) for k in sorted(values)))
         emit(args, {"file": rest[0], "count": len(values)}, lambda r: "saved %d parameters to %s" % (len(values), rest[0]))
     elif action == "load":
-        wanted = _read_param_file(rest[0])
-        link = _connect(args)
-        changed, same, failed = [], 0, []
-        try:
-            values = link.param_list(args.param_timeout)
-            for name, value in wanted.items():
-                if name not in values:
-                    failed.append("%s: not on the vehicle" % name)
-                elif _f32(values[name][0]) == _f32(value):
-                    same += 1
-                else:
-                    try:
-                        link.param_set(name, value, values[name][1])
-                        changed.append(name)
-                    except CliError as exc:
-                        failed.append(str(exc))
-        finally:
-            link.close()
-        result = {"file": rest[0], "changed": changed, "unchanged": same, "failed": failed}
-        emit(args, result, lambda r: "\n".join(
-            ["loaded %s: %d changed, %d already equal, %d failed" % (rest[0], len(changed), same, len(failed))]
-            + ["  " + f for f in failed]))
-        if failed:
-            raise CliError("%d parameter(s) of %s not loaded" % (len(failed), rest[0]))
+        _param_load(args, rest[0])
     elif action == "diff":
         wanted = _read_param_file(rest[0])
         values = _fetch_all(args)
@@ -265,6 +242,83 @@ def _read_param_file(path: str) -> dict:
         return paramfile.load(path)
     except paramfile.ParamFileError as exc:
         raise CliError(str(exc))
+
+
+def _unchanged(err: Exception) -> str:
+    sep = "\n" if len(getattr(err, "problems", ())) > 1 else "; "
+    return "%s%snothing was changed (--partial sets the good lines only)" % (err, sep)
+
+
+def _param_load(args: argparse.Namespace, path: str) -> None:
+    """Check the whole file against the vehicle, then set what differs; all or nothing.
+
+    Nothing is sent before every line has passed: the file (size,
+    encoding, syntax, names given twice), then each name and value
+    against the vehicle's list (does it exist, is an integer parameter
+    given an integer) and the firmware's declarations (range, read-only).
+    Should the vehicle still refuse one, or the link fail, the ones
+    already changed are set back. ``--partial`` sets the good lines and
+    lists the others."""
+    from roboray.firmware.app import PARAMS
+    from roboray.ground import paramfile
+
+    try:
+        wanted, where, problems = paramfile.load_lines(path)
+    except paramfile.ParamFileError as exc:
+        raise CliError("%s; nothing was changed" % exc)
+    if not wanted and not problems:
+        raise CliError("%s: no parameters in the file; nothing was changed" % path)
+    if problems and not args.partial:
+        raise CliError(_unchanged(paramfile.ParamFileError(problems)))
+    decls = {d[0]: d for d in PARAMS}
+    link = _connect(args)
+    changed: list = []
+    same = 0
+    try:
+        values = link.param_list(args.param_timeout)
+        todo = []
+        for name, value in wanted.items():
+            at = "%s:%d: " % (path, where[name])
+            if name not in values:
+                problems.append(at + "%s is not a parameter of the vehicle" % name)
+            elif _f32(values[name][0]) == _f32(value):
+                same += 1
+            else:
+                why = paramfile.check_value(name, value, values[name][1], decls.get(name))
+                if why is None:
+                    todo.append(name)
+                else:
+                    problems.append(at + why)
+        if problems and not args.partial:
+            raise CliError(_unchanged(paramfile.ParamFileError(problems)))
+        try:
+            for name in todo:
+                link.param_set(name, wanted[name], values[name][1])
+                changed.append(name)
+        except CliError as exc:
+            lost = []
+            for name in reversed(changed):
+                try:
+                    link.param_set(name, values[name][0], values[name][1])
+                except CliError:
+                    lost.append(name)
+            if lost:
+                raise CliError("%s; setting back the %d changed before it failed for %s: check them"
+                               % (exc, len(changed), ", ".join(sorted(lost))))
+            raise CliError("%s; the %d parameter(s) changed before it were set back: nothing was changed"
+                           % (exc, len(changed)))
+    finally:
+        link.close()
+    result = {"file": path, "changed": changed, "unchanged": same, "skipped": problems}
+
+    def text(r: dict) -> str:
+        lines = ["loaded %s: %d changed, %d already equal" % (path, len(changed), same)]
+        if problems:
+            lines[0] += ", %d line(s) skipped (--partial):" % len(problems)
+            lines += ["  " + x for x in problems]
+        return "\n".join(lines)
+
+    emit(args, result, text)
 
 
 def _f32(x: float) -> bytes:
@@ -358,21 +412,46 @@ def _log_plot(args: argparse.Namespace) -> None:
     emit(args, {"out": args.out, "samples": counts}, lambda r: "wrote %s" % args.out)
 
 
+def _message_types() -> set:
+    """Every message name a tlog can hold that we know: ours and pymavlink's common dialect."""
+    from pymavlink.dialects.v20 import common
+
+    from roboray.shared.mavlink.messages import NAME, TABLE
+
+    return {e[NAME] for e in TABLE.values()} | {c.msgname for c in common.mavlink_map.values()}
+
+
 def do_tlog_dump(args: argparse.Namespace) -> None:
-    """Decode a tlog with the board codec: one JSON object a message (JSON lines)."""
+    """Decode a tlog with the board codec: one JSON object a message (JSON lines).
+
+    Exit 1, after printing what could be read, when the file holds no
+    record, when ``--types`` matched none, or when damage was skipped
+    (the line on stderr says where)."""
     from roboray.ground import tlog
     from roboray.ground.link import key_from_passphrase
 
+    types = None
+    if args.types:
+        types = {t.upper() for t in args.types}
+        known = _message_types()
+        unknown = sorted(t for t in types if t not in known and not t.startswith("UNKNOWN_"))
+        if unknown:
+            raise UsageError("--types: no message type %s (e.g. ATTITUDE, HEARTBEAT, SYS_STATUS)"
+                             % ", ".join(unknown))
     with open(args.file, "rb") as f:
         data = f.read()
+    if not data:
+        raise CliError("%s is empty" % args.file)
     dec = tlog.Decoder(key_from_passphrase(args.key) if args.key else None)
+    damage = tlog.Damage()
     out = sys.stdout
-    n = 0
-    for t_us, frame in tlog.records(data):
-        m = dec.decode(frame)
-        if args.types and m["mavpackettype"] not in args.types:
-            continue
+    n = matched = 0
+    for t_us, frame in tlog.records(data, damage):
         n += 1
+        m = dec.decode(frame)
+        if types and m["mavpackettype"] not in types:
+            continue
+        matched += 1
         if args.json:
             m = {"timestamp": t_us / 1e6, **m}
             out.write(json.dumps(_finite(m)) + "\n")
@@ -381,8 +460,15 @@ def do_tlog_dump(args: argparse.Namespace) -> None:
             out.write("%s %s {%s}\n" % (time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(t_us / 1e6)),
                                          m["mavpackettype"], fields))
     out.flush()
-    if n == 0 and not data:
-        raise CliError("%s is empty" % args.file)
+    if n == 0:
+        raise CliError("%s: no tlog record in its %d bytes (a tlog is 8-byte timestamps, each followed by a "
+                       "MAVLink frame): not a tlog" % (args.file, len(data)))
+    hurt = damage.describe(args.file, n)
+    if types and not matched:
+        raise CliError("%s: none of its %d messages is %s%s" % (args.file, n, " or ".join(sorted(types)),
+                                                                 "; " + hurt if hurt else ""))
+    if hurt:
+        raise CliError(hurt)
 
 
 # ------------------------------------------------------------------ demo
@@ -444,6 +530,8 @@ def build_parser():
     p.add_argument("rest", nargs="*", metavar="ARG", help="NAME, NAME VALUE or FILE")
     _link_options(p)
     p.add_argument("--param-timeout", type=float, default=10.0, help="seconds for a full parameter list")
+    p.add_argument("--partial", action="store_true",
+                   help="load: set the file's good lines and list the bad ones (default: all or nothing)")
     add_json(p)
 
     p = command(sub, "log", do_log, "record a tlog, or plot one")

@@ -77,8 +77,31 @@ def _crc_ok(frame: bytes) -> bool:
     return frame[end] | frame[end + 1] << 8 == c
 
 
-def records(data: bytes) -> Iterator[tuple[int, bytes]]:
-    """(timestamp_us, frame) for each record; damaged stretches are skipped.
+class Damage:
+    """What ``records`` had to skip: damaged stretches and a cut end."""
+
+    def __init__(self) -> None:
+        self.skipped_bytes = 0   # bytes in damaged stretches, the cut end included
+        self.stretches = 0       # places where the walk lost and found the record boundary
+        self.cut_at = -1         # offset of a last record cut short (a write interrupted), -1 if none
+
+    def describe(self, name: str, records: int) -> str:
+        """One line for the user, "" when nothing was damaged."""
+        parts = []
+        inner = self.stretches - (1 if self.cut_at >= 0 else 0)
+        if inner > 0:
+            parts.append("skipped %d damaged stretch(es)" % inner)
+        if self.cut_at >= 0:
+            parts.append("the file ends in a record cut short at byte %d (a write interrupted?)" % self.cut_at)
+        if not parts:
+            return ""
+        return "%s: %s; %d good record(s) read, %d byte(s) skipped" % (
+            name, " and ".join(parts), records, self.skipped_bytes)
+
+
+def records(data: bytes, damage: Optional[Damage] = None) -> Iterator[tuple[int, bytes]]:
+    """(timestamp_us, frame) for each record; damaged stretches are skipped
+    (and counted in ``damage`` when given).
 
     A record is trusted when its frame's checksum holds, or when another
     record (or the end of the file) follows it; otherwise the search moves
@@ -86,16 +109,28 @@ def records(data: bytes) -> Iterator[tuple[int, bytes]]:
     """
     pos = 0
     n = len(data)
+    lost_from = -1
     while pos + 8 < n:
         flen = _plausible(data, pos)
         if flen:
             frame = data[pos + 8:pos + 8 + flen]
             nxt = pos + 8 + flen
             if _crc_ok(frame) or nxt == n or _plausible(data, nxt):
+                if lost_from >= 0 and damage is not None:
+                    damage.skipped_bytes += pos - lost_from
+                    damage.stretches += 1
+                lost_from = -1
                 yield _TS.unpack_from(data, pos)[0], frame
                 pos = nxt
                 continue
+        if lost_from < 0:
+            lost_from = pos
         pos += 1  # resynchronise on the next plausible record
+    if damage is not None and (pos < n or lost_from >= 0):   # the walk ended inside a record
+        start = lost_from if lost_from >= 0 else pos
+        damage.skipped_bytes += n - start
+        damage.stretches += 1
+        damage.cut_at = start
 
 
 class Decoder:

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import math
 import runpy
-from dataclasses import dataclass, field, replace
+import traceback
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +83,26 @@ class VehicleParams:
     imu_position: tuple  #: m, in the dome
     pressure_port: tuple  #: m, on the plate's top face
 
+    def problems(self) -> list[str]:
+        """What makes these inputs unusable (empty when none): every field a
+        finite number, positions three of them, and the signs physics needs."""
+        out = []
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("imu_position", "pressure_port"):
+                ok = isinstance(v, (tuple, list)) and len(v) == 3 and all(_finite_number(x) for x in v)
+                if not ok:
+                    out.append("%s must be three finite numbers (m), got %r" % (f.name, v))
+            elif not _finite_number(v):
+                out.append("%s must be a finite number, got %r" % (f.name, v))
+            elif f.name in _POSITIVE and not v > 0:
+                out.append("%s must be > 0, got %r" % (f.name, v))
+            elif f.name in _NON_NEGATIVE and not v >= 0:
+                out.append("%s must be >= 0, got %r" % (f.name, v))
+        if not out and not self.servo_min < self.servo_max:
+            out.append("servo_min (%r) must be below servo_max (%r)" % (self.servo_min, self.servo_max))
+        return out
+
     def with_water(self, water: str) -> "VehicleParams":
         """The same vehicle in ``"fresh"`` or ``"sea"`` water."""
         if water not in WATER_DENSITY:
@@ -89,8 +110,23 @@ class VehicleParams:
         return replace(self, rho=WATER_DENSITY[water])
 
 
+#: Fields that must be strictly positive, and those that may be zero.
+_POSITIVE = frozenset(("rho", "g", "plate_side", "wing_height", "thickness", "plate_density", "wing_density",
+                       "dome_radius", "dome_shell_thickness", "dome_density", "total_mass", "payload_radius",
+                       "payload_thickness", "servo_tau", "servo_rate"))
+_NON_NEGATIVE = frozenset(("cd", "cf", "servo_mass", "servo_volume", "servo_height"))
+
+
+def _finite_number(x) -> bool:
+    return isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 def load_params(path: str | Path | None = None) -> VehicleParams:
-    """The reference vehicle, or the ``VEHICLE`` defined in a Python file."""
+    """The reference vehicle, or the ``VEHICLE`` defined in a Python file.
+
+    ``ValueError`` names the file and says what is wrong with it: an error
+    raised while running it (with its line), no ``VEHICLE``, or fields
+    that are not finite numbers of the right sign."""
     if path is None:
         from roboray.sim.vehicles.reference import VEHICLE
 
@@ -98,10 +134,20 @@ def load_params(path: str | Path | None = None) -> VehicleParams:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(2, "no such vehicle file", str(path))
-    namespace = runpy.run_path(str(path))
+    try:
+        namespace = runpy.run_path(str(path))
+    except SyntaxError as exc:
+        raise ValueError("%s:%s: %s" % (path, exc.lineno, exc.msg))
+    except Exception as exc:  # noqa: BLE001 - any error in the user's file is reported, not a traceback
+        line = next((f.lineno for f in reversed(traceback.extract_tb(exc.__traceback__))
+                     if Path(f.filename) == path), None)
+        raise ValueError("%s%s: %s: %s" % (path, "" if line is None else ":%d" % line, type(exc).__name__, exc))
     vehicle = namespace.get("VEHICLE")
     if not isinstance(vehicle, VehicleParams):
         raise ValueError("%s must define VEHICLE = VehicleParams(...)" % path)
+    bad = vehicle.problems()
+    if bad:
+        raise ValueError("%s: %s" % (path, "; ".join(bad)))
     return vehicle
 
 
@@ -156,10 +202,9 @@ class Vehicle:
     def __init__(self, params: VehicleParams | None = None) -> None:
         self.p = params if params is not None else load_params()
         p = self.p
-        for name in ("rho", "g", "plate_side", "wing_height", "thickness", "dome_radius", "total_mass",
-                     "servo_tau", "servo_rate"):
-            if not getattr(p, name) > 0:
-                raise ValueError("VehicleParams.%s must be > 0, got %r" % (name, getattr(p, name)))
+        bad = p.problems()
+        if bad:
+            raise ValueError("VehicleParams: %s" % "; ".join(bad))
         a, h, t = p.plate_side, p.wing_height, p.thickness
         self.azimuths = np.arange(4) * (math.pi / 2)
         #: radial unit vectors r_i and hinge axes t_i = z x r_i

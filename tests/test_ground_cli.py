@@ -193,3 +193,79 @@ def test_watch_prints_lines_when_piped_and_sees_the_link_drop_and_return(vehicle
     first_lost = states.index("lost")
     assert "ok" in states[:first_lost] and "ok" in states[first_lost:]
     assert "disarmed" in out or "ARMED" in out
+
+
+def _param(vehicle, name: str) -> float:
+    r = ground("param", "get", name, "--master", vehicle.device, "--json")
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout)[name]
+
+
+def test_param_load_refuses_a_bad_file_whole_and_changes_nothing(vehicle, tmp_path):
+    before = _param(vehicle, "SR_BATTERY")
+    want = 0.25 if before != 0.25 else 0.5
+    cases = {
+        "binary.parm": (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", "binary file, not a parameter file"),
+        "latin1.parm": ("SR_BATTERY %g\nCOMMENT \xe9t\xe9 1\n" % want).encode("latin-1"),
+        "unknown.parm": ("SR_BATTERY %g\nNO_SUCH_PARAM 1\n" % want).encode(),
+        "twice.parm": ("SR_BATTERY %g\nSR_BATTERY 0.1\n" % want).encode(),
+        "range.parm": ("SR_BATTERY %g\nFS_GCS_TIMEOUT 1000\n" % want).encode(),
+        "integer.parm": ("SR_BATTERY %g\nFS_GCS_ENABLE 1.5\n" % want).encode(),
+        "garbage.parm": ("SR_BATTERY %g\nthis is not a line\n" % want).encode(),
+    }
+    why = {"latin1.parm": "is not UTF-8 text", "unknown.parm": "NO_SUCH_PARAM is not a parameter of the vehicle",
+           "twice.parm": "SR_BATTERY is given twice (first on line 1)",
+           "range.parm": "FS_GCS_TIMEOUT = 1000 is out of range [1, 120]",
+           "integer.parm": "FS_GCS_ENABLE is an integer parameter",
+           "garbage.parm": "expected NAME VALUE"}
+    for name, case in cases.items():
+        data, expected = case if isinstance(case, tuple) else (case, why[name])
+        f = tmp_path / name
+        f.write_bytes(data)
+        r = ground("param", "load", str(f), "--master", vehicle.device)
+        assert r.returncode == 1, (name, r.stdout, r.stderr)
+        assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, (name, r.stderr)
+        assert expected in r.stderr and "nothing was changed" in r.stderr, (name, r.stderr)
+        assert _param(vehicle, "SR_BATTERY") == before, name   # the good line was not applied either
+    # too large: refused from its size, before it is read
+    big = tmp_path / "big.parm"
+    with open(big, "wb") as fh:
+        fh.truncate(50 * 1024 * 1024)
+    r = ground("param", "load", str(big), "--master", vehicle.device)
+    assert r.returncode == 1 and "52428800 bytes; a parameter file is at most 262144" in r.stderr, r.stderr
+    # --partial: the good line is set, the bad one listed
+    f = tmp_path / "unknown.parm"
+    r = ground("param", "load", str(f), "--master", vehicle.device, "--partial", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["changed"] == ["SR_BATTERY"] and len(out["skipped"]) == 1 and "NO_SUCH_PARAM" in out["skipped"][0]
+    assert _param(vehicle, "SR_BATTERY") == want
+    r = ground("param", "set", "SR_BATTERY", "%g" % before, "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr
+
+
+def test_tlog_dump_says_what_is_wrong_with_a_file(tmp_path):
+    import struct
+
+    from pymavlink.dialects.v20 import common as pm
+
+    mav = pm.MAVLink(None, 1, 1)
+    frames = [pm.MAVLink_attitude_message(i, 0.1 * i, 0.0, 0.0, 0.0, 0.0, 0.0).pack(mav) for i in range(5)]
+    data = b"".join(struct.pack(">Q", 1_700_000_000_000_000 + 10_000 * i) + f for i, f in enumerate(frames))
+    files = {"garbage.tlog": b"garbage! " * 40, "short.tlog": b"1234567", "cut.tlog": data[:-7], "ok.tlog": data}
+    for name, content in files.items():
+        (tmp_path / name).write_bytes(content)
+    for name in ("garbage.tlog", "short.tlog"):
+        r = ground("tlog", "dump", str(tmp_path / name))
+        assert (r.returncode, r.stdout) == (1, ""), (name, r)
+        assert "no tlog record in its" in r.stderr and "not a tlog" in r.stderr and r.stderr.count("\n") == 1
+    r = ground("tlog", "dump", str(tmp_path / "cut.tlog"), "--json")
+    # everything before the cut is printed, then the cut is said
+    assert r.returncode == 1 and len(r.stdout.splitlines()) == 4
+    assert "ends in a record cut short at byte 105 (a write interrupted?); 4 good record(s) read" in r.stderr
+    r = ground("tlog", "dump", str(tmp_path / "ok.tlog"), "--types", "NOPE")
+    assert r.returncode == 2 and "--types: no message type NOPE" in r.stderr and r.stdout == ""
+    r = ground("tlog", "dump", str(tmp_path / "ok.tlog"), "--types", "heartbeat")
+    assert r.returncode == 1 and "none of its 5 messages is HEARTBEAT" in r.stderr
+    r = ground("tlog", "dump", str(tmp_path / "ok.tlog"), "--types", "attitude", "--json")
+    assert r.returncode == 0 and len(r.stdout.splitlines()) == 5 and r.stderr == ""

@@ -63,3 +63,36 @@ def test_tlog_decoder_reports_crc_and_fields():
     m = dec.decode(bytes(bad))
     assert m["mavpackettype"] == "ATTITUDE" and m["crc_ok"] is False
     assert dec.decode(b"\xfd\x01\x00\x00\x00\x01\x01\x99\x99\x99\x00\x00\x00")["mavpackettype"].startswith("UNKNOWN_")
+
+
+def test_param_file_lists_every_problem_at_once(tmp_path):
+    with pytest.raises(paramfile.ParamFileError) as info:
+        paramfile.parse("A 1\nB x\nA 2\nC\n", "f.parm")
+    assert info.value.problems == ["f.parm:2: B has value 'x', not a number",
+                                   "f.parm:3: A is given twice (first on line 1)",
+                                   "f.parm:4: expected NAME VALUE, got 'C'"]
+    assert str(info.value).startswith("3 problems:")
+
+
+@pytest.mark.parametrize("data,message", [
+    (b"A 1\n\x00\x01", "a NUL byte at offset 4: a binary file"),
+    (b"A 1\nB \xff\n", "f.parm:2: byte 0xff at offset 6 is not UTF-8 text"),
+    (b"A 1\n" * 70000, "280000 bytes; a parameter file is at most 262144"),
+])
+def test_param_file_that_is_not_text_or_too_large_is_refused(tmp_path, data, message):
+    f = tmp_path / "f.parm"
+    f.write_bytes(data)
+    with pytest.raises(paramfile.ParamFileError) as info:
+        paramfile.load(str(f))
+    assert message in str(info.value)
+
+
+def test_tlog_records_count_the_damage_they_skip():
+    data, frames = _tlog(10)
+    start = [sum(8 + len(f) for f in frames[:i]) for i in range(len(frames) + 1)]
+    damage = tlog.Damage()
+    got = [f for _, f in tlog.records(data[:start[3] + 5] + data[start[4]:-3], damage)]
+    assert got == frames[:3] + frames[4:9]
+    assert (damage.stretches, damage.cut_at, damage.skipped_bytes) == (2, start[9] - (8 + len(frames[3])) + 5, 5 + 8 + len(frames[9]) - 3)
+    clean = tlog.Damage()
+    assert len(list(tlog.records(data, clean))) == 10 and clean.describe("x", 10) == ""

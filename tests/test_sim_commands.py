@@ -75,6 +75,26 @@ def test_missing_or_broken_vehicle_file(tmp_path):
     assert proc.returncode == 1 and "VehicleParams" in proc.stderr and "Traceback" not in proc.stderr
 
 
+def test_vehicle_file_that_raises_or_holds_nan_is_refused_in_one_line(tmp_path):
+    from pathlib import Path
+
+    import roboray.sim.vehicles.reference as ref
+
+    raises = tmp_path / "raises.py"
+    raises.write_text("import math\n\nVEHICLE = math.sqrt(-1)\n")
+    text = Path(ref.__file__).read_text()
+    nan = tmp_path / "nan.py"
+    nan.write_text(text.replace("    cd=", "    cd=float('nan'),  # was ", 1))
+    negative = tmp_path / "negative.py"
+    negative.write_text(text.replace("    cf=", "    cf=-0.1,  # was ", 1))
+    for f, message in ((raises, "raises.py:3: ValueError: math domain error"),
+                       (nan, "cd must be a finite number, got nan"),
+                       (negative, "cf must be >= 0, got -0.1")):
+        proc = sim("vehicle", "--vehicle", str(f))
+        assert proc.returncode == 1 and proc.stdout == "", proc
+        assert message in proc.stderr and len(proc.stderr.splitlines()) == 1, proc.stderr
+
+
 def test_edited_vehicle_file_is_used(tmp_path):
     from pathlib import Path
 
