@@ -14,7 +14,7 @@ only and are never signed.
 """
 
 from roboray.shared.mavlink import crc
-from roboray.shared.mavlink.messages import TABLE
+from roboray.shared.mavlink.messages import WIRE
 
 try:
     from micropython import const
@@ -32,6 +32,11 @@ STX_V1 = const(0xFE)
 HEADER_V2 = const(10)
 HEADER_V1 = const(6)
 IFLAG_SIGNED = const(0x01)
+# a message id's three bytes in messages.WIRE
+_W_CRC_EXTRA = const(0)
+_W_MIN_LEN = const(1)
+_W_MAX_LEN = const(2)
+_W_IDS = const(256)
 #: Longest frame: MAVLink 2 header, 255-byte payload, CRC, signature.
 FRAME_MAX = const(280)
 
@@ -76,7 +81,9 @@ class Writer:
 
         ``seq`` overrides the sequence number (tests); by default it counts up.
         """
-        entry = TABLE[msgid]
+        w = 3 * msgid
+        if not 0 <= msgid < _W_IDS or not WIRE[w + _W_MAX_LEN]:
+            raise KeyError(msgid)
         b = self.buf
         signed = False
         if seq < 0:
@@ -89,13 +96,13 @@ class Writer:
                 signed = signing.key is not None
             b[2] = IFLAG_SIGNED if signed else 0
             b[6] = self.compid
-            n = _v2_finish(b, entry[3], msgid, seq | (entry[1] << 8) | (self.sysid << 16))
+            n = _v2_finish(b, WIRE[w + _W_MAX_LEN], msgid, seq | (WIRE[w + _W_CRC_EXTRA] << 8) | (self.sysid << 16))
             if signed:
                 n = self.signing.sign(b, n)  # type: ignore[union-attr]
             self.sent += 1
             return n
         if self.mavlink1:
-            plen = entry[2]
+            plen = WIRE[w + _W_MIN_LEN]
             b[0] = STX_V1
             b[1] = plen
             b[2] = seq
@@ -104,7 +111,7 @@ class Writer:
             b[5] = msgid
             end = HEADER_V1 + plen
         else:
-            plen = _trim(b, HEADER_V2, entry[3])
+            plen = _trim(b, HEADER_V2, WIRE[w + _W_MAX_LEN])
             signing = self.signing
             if signing is not None:
                 signed = signing.key is not None
@@ -120,7 +127,7 @@ class Writer:
             b[9] = msgid >> 16
             end = HEADER_V2 + plen
         # CRC_EXTRA goes where the checksum will be, so that one pass covers it
-        b[end] = entry[1]
+        b[end] = WIRE[w + _W_CRC_EXTRA]
         c = _crc(_CRC_INIT, b, 1, end + 1)
         b[end] = c & 0xFF
         b[end + 1] = c >> 8

@@ -2,12 +2,18 @@
 common.xml (common.xml). Do not edit; regenerate with
 ``python -m roboray.tools.mavgen``.
 
-``TABLE[msgid]`` is ``(name, crc_extra, min_len, max_len, fmt, fields, arrays)``:
-``min_len`` is the MAVLink 1 payload (base fields), ``max_len`` MAVLink 2's
-(with extensions); ``fmt`` unpacks a ``max_len`` payload in wire order into
-the values of ``fields`` (an array of N numbers is N values, a char array
-one bytes value); ``arrays[i]`` is field i's array length, 0 for a scalar or
-a char array. ``<NAME>_FMT`` and ``<NAME>_LEN`` serve the encoders.
+The board's table is ``WIRE``, one bytes constant, three bytes a message
+id ``m`` below 256: ``WIRE[3 * m + WIRE_CRC_EXTRA]`` its CRC_EXTRA,
+``WIRE[3 * m + WIRE_MIN_LEN]`` its MAVLink 1 payload (base fields),
+``WIRE[3 * m + WIRE_MAX_LEN]`` its MAVLink 2 payload (with extensions), 0
+for an unknown id. A bytes constant is one object with no children for the
+collector, and from the ROMFS partition its data stays in flash (the
+tuples of names and formats it replaces were 140 objects on the heap and
+overflowed the collector's 64-entry mark stack). ``<NAME>_FMT`` and
+``<NAME>_LEN`` serve the encoders.
+
+The host's ``TABLE`` (names, formats, fields) is in ``table.py`` (not
+imported on the board); ``messages.TABLE`` reaches it on CPython.
 """
 
 try:
@@ -16,7 +22,7 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-# Indices into a TABLE entry
+# Indices into a TABLE entry (host side, table.py)
 NAME = const(0)
 CRC_EXTRA = const(1)
 MIN_LEN = const(2)
@@ -24,6 +30,11 @@ MAX_LEN = const(3)
 FMT = const(4)
 FIELDS = const(5)
 ARRAYS = const(6)
+
+# Offsets into a message id's three WIRE bytes
+WIRE_CRC_EXTRA = const(0)
+WIRE_MIN_LEN = const(1)
+WIRE_MAX_LEN = const(2)
 
 # Message ids
 MSG_HEARTBEAT = const(0)
@@ -101,32 +112,34 @@ NAMED_VALUE_INT_LEN = const(18)
 STATUSTEXT_FMT = "<B50sHB"
 STATUSTEXT_LEN = const(54)
 
-TABLE = {
-    0: ("HEARTBEAT", 50, 9, 9, HEARTBEAT_FMT, ("custom_mode", "type", "autopilot", "base_mode", "system_status", "mavlink_version",), (0, 0, 0, 0, 0, 0,)),
-    1: ("SYS_STATUS", 124, 31, 43, SYS_STATUS_FMT, ("onboard_control_sensors_present", "onboard_control_sensors_enabled", "onboard_control_sensors_health", "load", "voltage_battery", "current_battery", "drop_rate_comm", "errors_comm", "errors_count1", "errors_count2", "errors_count3", "errors_count4", "battery_remaining", "onboard_control_sensors_present_extended", "onboard_control_sensors_enabled_extended", "onboard_control_sensors_health_extended",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
-    2: ("SYSTEM_TIME", 137, 12, 12, SYSTEM_TIME_FMT, ("time_unix_usec", "time_boot_ms",), (0, 0,)),
-    20: ("PARAM_REQUEST_READ", 214, 20, 20, PARAM_REQUEST_READ_FMT, ("param_index", "target_system", "target_component", "param_id",), (0, 0, 0, 0,)),
-    21: ("PARAM_REQUEST_LIST", 159, 2, 2, PARAM_REQUEST_LIST_FMT, ("target_system", "target_component",), (0, 0,)),
-    22: ("PARAM_VALUE", 220, 25, 25, PARAM_VALUE_FMT, ("param_value", "param_count", "param_index", "param_id", "param_type",), (0, 0, 0, 0, 0,)),
-    23: ("PARAM_SET", 168, 23, 23, PARAM_SET_FMT, ("param_value", "target_system", "target_component", "param_id", "param_type",), (0, 0, 0, 0, 0,)),
-    26: ("SCALED_IMU", 170, 22, 24, SCALED_IMU_FMT, ("time_boot_ms", "xacc", "yacc", "zacc", "xgyro", "ygyro", "zgyro", "xmag", "ymag", "zmag", "temperature",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
-    29: ("SCALED_PRESSURE", 115, 14, 16, SCALED_PRESSURE_FMT, ("time_boot_ms", "press_abs", "press_diff", "temperature", "temperature_press_diff",), (0, 0, 0, 0, 0,)),
-    30: ("ATTITUDE", 39, 28, 28, ATTITUDE_FMT, ("time_boot_ms", "roll", "pitch", "yaw", "rollspeed", "pitchspeed", "yawspeed",), (0, 0, 0, 0, 0, 0, 0,)),
-    31: ("ATTITUDE_QUATERNION", 246, 32, 48, ATTITUDE_QUATERNION_FMT, ("time_boot_ms", "q1", "q2", "q3", "q4", "rollspeed", "pitchspeed", "yawspeed", "repr_offset_q",), (0, 0, 0, 0, 0, 0, 0, 0, 4,)),
-    32: ("LOCAL_POSITION_NED", 185, 28, 28, LOCAL_POSITION_NED_FMT, ("time_boot_ms", "x", "y", "z", "vx", "vy", "vz",), (0, 0, 0, 0, 0, 0, 0,)),
-    36: ("SERVO_OUTPUT_RAW", 222, 21, 37, SERVO_OUTPUT_RAW_FMT, ("time_usec", "servo1_raw", "servo2_raw", "servo3_raw", "servo4_raw", "servo5_raw", "servo6_raw", "servo7_raw", "servo8_raw", "port", "servo9_raw", "servo10_raw", "servo11_raw", "servo12_raw", "servo13_raw", "servo14_raw", "servo15_raw", "servo16_raw",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
-    76: ("COMMAND_LONG", 152, 33, 33, COMMAND_LONG_FMT, ("param1", "param2", "param3", "param4", "param5", "param6", "param7", "command", "target_system", "target_component", "confirmation",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
-    77: ("COMMAND_ACK", 143, 3, 10, COMMAND_ACK_FMT, ("command", "result", "progress", "result_param2", "target_system", "target_component",), (0, 0, 0, 0, 0, 0,)),
-    84: ("SET_POSITION_TARGET_LOCAL_NED", 143, 53, 53, SET_POSITION_TARGET_LOCAL_NED_FMT, ("time_boot_ms", "x", "y", "z", "vx", "vy", "vz", "afx", "afy", "afz", "yaw", "yaw_rate", "type_mask", "target_system", "target_component", "coordinate_frame",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
-    85: ("POSITION_TARGET_LOCAL_NED", 140, 51, 51, POSITION_TARGET_LOCAL_NED_FMT, ("time_boot_ms", "x", "y", "z", "vx", "vy", "vz", "afx", "afy", "afz", "yaw", "yaw_rate", "type_mask", "coordinate_frame",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
-    109: ("RADIO_STATUS", 185, 9, 9, RADIO_STATUS_FMT, ("rxerrors", "fixed", "rssi", "remrssi", "txbuf", "noise", "remnoise",), (0, 0, 0, 0, 0, 0, 0,)),
-    111: ("TIMESYNC", 34, 16, 16, TIMESYNC_FMT, ("tc1", "ts1",), (0, 0,)),
-    138: ("ATT_POS_MOCAP", 109, 36, 120, ATT_POS_MOCAP_FMT, ("time_usec", "q", "x", "y", "z", "covariance",), (0, 4, 0, 0, 0, 21,)),
-    147: ("BATTERY_STATUS", 154, 36, 54, BATTERY_STATUS_FMT, ("current_consumed", "energy_consumed", "temperature", "voltages", "current_battery", "id", "battery_function", "type", "battery_remaining", "time_remaining", "charge_state", "voltages_ext", "mode", "fault_bitmask",), (0, 0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 4, 0, 0,)),
-    251: ("NAMED_VALUE_FLOAT", 170, 18, 18, NAMED_VALUE_FLOAT_FMT, ("time_boot_ms", "value", "name",), (0, 0, 0,)),
-    252: ("NAMED_VALUE_INT", 44, 18, 18, NAMED_VALUE_INT_FMT, ("time_boot_ms", "value", "name",), (0, 0, 0,)),
-    253: ("STATUSTEXT", 83, 51, 54, STATUSTEXT_FMT, ("severity", "text", "id", "chunk_seq",), (0, 0, 0, 0,)),
-}
+# CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-255
+# (three zeros: unknown)
+WIRE = (
+    b"\x32\x09\x09\x7c\x1f\x2b\x89\x0c\x0c\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xd6\x14\x14\x9f\x02\x02\xdc\x19\x19\xa8\x17\x17\x00\x00\x00\x00\x00\x00\xaa\x16\x18\x00\x00\x00\x00\x00\x00\x73\x0e\x10\x27\x1c\x1c\xf6\x20\x30"
+    b"\xb9\x1c\x1c\x00\x00\x00\x00\x00\x00\x00\x00\x00\xde\x15\x25\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x98\x21\x21\x8f\x03\x0a\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x8f\x35\x35\x8c\x33\x33\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xb9\x09\x09\x00\x00\x00\x22\x10\x10"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x6d\x24\x78\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x9a\x24\x36\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+    b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xaa\x12\x12\x2c\x12\x12\x53\x33\x36\x00\x00\x00\x00\x00\x00"
+)
+
+
+def __getattr__(name):
+    """``TABLE`` (host side): the full table, from ``table.py``."""
+    if name == "TABLE":
+        from roboray.shared.mavlink.table import TABLE
+        return TABLE
+    raise AttributeError(name)
 
 # MAV_TYPE
 MAV_TYPE_SUBMARINE = const(12)

@@ -32,7 +32,7 @@ Feeding a ``memoryview`` costs one small view object per copy on the board
 from array import array
 
 from roboray.shared.mavlink import crc
-from roboray.shared.mavlink.messages import TABLE
+from roboray.shared.mavlink.messages import WIRE
 
 try:
     from micropython import const
@@ -50,6 +50,11 @@ _HEADER_V1 = const(6)
 _SIGNATURE_LEN = const(13)
 _FRAME_MAX = const(280)
 _SOURCES = const(8)
+# a message id's three bytes in messages.WIRE
+_W_CRC_EXTRA = const(0)
+_W_MIN_LEN = const(1)
+_W_MAX_LEN = const(2)
+_W_IDS = const(256)
 
 
 class Parser:
@@ -76,7 +81,6 @@ class Parser:
         self.ready = False
         # the last valid frame
         self.msgid = -1
-        self.entry = None   # its TABLE entry
         self.sysid = 0
         self.compid = 0
         self.seq = 0
@@ -128,8 +132,8 @@ class Parser:
                     # straight away; anything else is left to _run (which
                     # checks the same and counts).
                     msgid = data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16)
-                    entry = TABLE.get(msgid)
-                    if entry is not None:
+                    w = 3 * msgid
+                    if msgid < _W_IDS and WIRE[w + _W_MAX_LEN]:
                         plen = data[i + 1]
                         flags = data[i + 2]
                         k = _HEADER_V2 + 2 + plen + (_SIGNATURE_LEN if flags & 1 else 0)
@@ -137,15 +141,15 @@ class Parser:
                             buf[0:k] = data[i:i + k]
                             i += k
                             self._n = k
-                            if not flags & 0xFE and plen <= entry[3]:
+                            if not flags & 0xFE and plen <= WIRE[w + _W_MAX_LEN]:
                                 e = _HEADER_V2 + plen
                                 lo = buf[e]
-                                buf[e] = entry[1]
+                                buf[e] = WIRE[w + _W_CRC_EXTRA]
                                 c = _crc(_CRC_INIT, buf, 1, e + 1)
                                 buf[e] = lo
                                 if lo == (c & 0xFF) and buf[e + 1] == (c >> 8):
                                     self._flen = k
-                                    self._deliver(True, _HEADER_V2, msgid, entry, plen)
+                                    self._deliver(True, _HEADER_V2, msgid, plen)
                                     return i
                             self._need = _HEADER_V2
                             if self._run():
@@ -239,15 +243,15 @@ class Parser:
                     hdr = _HEADER_V1
                     flags = 0
                     msgid = buf[5]
-                entry = TABLE.get(msgid)
-                if entry is None:
+                w = 3 * msgid
+                if msgid >= _W_IDS or not WIRE[w + _W_MAX_LEN]:
                     self.unknown += 1
                     self._reject()
                     continue
                 plen = buf[1]
                 # MAVLink 2 may truncate; MAVLink 1 carries the base fields, and
                 # pymavlink adds the extensions to its MAVLink 1 frames: accept both.
-                if plen > entry[3] or (hdr == _HEADER_V1 and plen < entry[2]):
+                if plen > WIRE[w + _W_MAX_LEN] or (hdr == _HEADER_V1 and plen < WIRE[w + _W_MIN_LEN]):
                     self.bad_header += 1
                     self._reject()
                     continue
@@ -258,27 +262,32 @@ class Parser:
             v2 = buf[0] == _STX_V2
             hdr = _HEADER_V2 if v2 else _HEADER_V1
             msgid = (buf[7] | (buf[8] << 8) | (buf[9] << 16)) if v2 else buf[5]
-            entry = TABLE[msgid]
             plen = buf[1]
             end = hdr + plen
             # CRC_EXTRA in the checksum's place for one pass, then the byte back
             lo = buf[end]
-            buf[end] = entry[1]
+            buf[end] = WIRE[3 * msgid + _W_CRC_EXTRA]
             c = _crc(_CRC_INIT, buf, 1, end + 1)
             buf[end] = lo
             if lo != (c & 0xFF) or buf[end + 1] != (c >> 8):
                 self.crc_errors += 1
                 self._reject()
                 continue
-            self._deliver(v2, hdr, msgid, entry, plen)
+            self._deliver(v2, hdr, msgid, plen)
             return True
         return False
 
-    def _deliver(self, v2, hdr, msgid, entry, plen):
+    @property
+    def entry(self):
+        """The last frame's ``messages.TABLE`` entry (host side: the board
+        keeps no table of names and formats)."""
+        from roboray.shared.mavlink.table import TABLE
+        return TABLE.get(self.msgid)
+
+    def _deliver(self, v2, hdr, msgid, plen):
         buf = self.buf
         flen = self._flen
         self.msgid = msgid
-        self.entry = entry
         self.mavlink1 = not v2
         if v2:
             seq = buf[4]
