@@ -325,8 +325,9 @@ def register(sub, bench) -> None:
     p = command(bench, "board", do_bench_board,
                 "the firmware's time on the emulated RP2350: tasks, slots, collector, heap, calibration")
     p.add_argument("--cpu-mhz", type=cpu_mhz, default=150.0, help="the board's clock (default 150)")
-    p.add_argument("--romfs", action="store_true",
-                   help="the board code in the Pico 2's ROMFS partition (run in place from flash), not in /lib")
+    p.add_argument("--romfs", action=argparse.BooleanOptionalAction, default=True,
+                   help="the board code in the Pico 2's ROMFS partition (run in place from flash, as "
+                        "roboray-flash deploy puts it; the default), or with --no-romfs in /lib")
     p.add_argument("--write-model", action="store_true",
                    help="also write the per-task costs the default twin charges (sim/twin/board_time_model.json)")
     add_json(p)

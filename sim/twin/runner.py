@@ -115,8 +115,9 @@ class Options:
     #: ``{"tasks": {name: [us a call, by mode]}, "gc_us": us}``).
     board_model: Optional[dict] = None
     #: rp2350-emu: the board code in the Pico 2's ROMFS partition (run in
-    #: place from flash, as ``mpremote romfs deploy`` puts it), not in /lib
-    romfs: bool = False
+    #: place from flash, as ``roboray-flash deploy`` puts it on a Pico 2);
+    #: None (the default) is ROMFS too, False puts it in /lib
+    romfs: Optional[bool] = None
 
 
 # ---------------------------------------------------------------- boards
@@ -651,7 +652,7 @@ class Twin:
         elif o.interpreter == "micropython-unix":
             self.board = MicroPythonUnixBoard(self._on_request)
         elif o.interpreter == "rp2350-emu":
-            self.board = RP2350EmuBoard(self._on_request, romfs=o.romfs)
+            self.board = RP2350EmuBoard(self._on_request, romfs=o.romfs is not False)
         else:
             self.board = CPythonBoard(self._on_request)
         try:

@@ -1,7 +1,9 @@
 """``roboray-flash``: build the board code and put it on a board.
 
 - ``build``: compile ``shared/`` and ``firmware/`` for the RP2350 (:mod:`.build`);
-- ``deploy``: bring a board to the build, verified, safe to interrupt (:mod:`.deploy`);
+- ``deploy``: bring a board to the build, verified: the board code into the
+  Pico 2's ROMFS partition (:mod:`.romfs`) or, without one, to ``/lib``,
+  safe to interrupt (:mod:`.deploy`);
 - ``status``: what the board holds against the build;
 - ``virtual-board``: a MicroPython board on a pseudo-terminal, for trying all of it.
 """
@@ -44,15 +46,50 @@ def _board(args: argparse.Namespace):
 def do_deploy(args: argparse.Namespace) -> None:
     """Build if needed, then bring the board to the build."""
     from .deploy import deploy
+    from .romfs import RomfsUnavailable, deploy_romfs
 
     result = _build(args)
     with _board(args) as board:
-        report = deploy(board, result, dry_run=args.dry_run, rehash=args.rehash,
-                        reset=not args.no_reset, start_timeout_s=args.start_timeout)
+        report = None
+        why = None
+        if args.target in ("auto", "romfs"):
+            try:
+                report = deploy_romfs(board, result, dry_run=args.dry_run, reset=not args.no_reset,
+                                      start_timeout_s=args.start_timeout)
+            except RomfsUnavailable as exc:
+                if args.target == "romfs":
+                    raise
+                why = str(exc)
+                log.info("%s: deploying to /lib", why)
+        if report is None:
+            report = deploy(board, result, dry_run=args.dry_run, rehash=args.rehash,
+                            reset=not args.no_reset, start_timeout_s=args.start_timeout)
+            report["target"] = "lib"
+            if why:
+                report["romfs_unavailable"] = why
     emit(args, report, _deploy_text)
 
 
 def _deploy_text(r: dict) -> str:
+    if r.get("target") == "romfs":
+        img = "ROMFS image %d B of %d B partition %s" % (
+            r["romfs_image_bytes"], r["romfs_partition_bytes"], "written" if r["romfs_written"] else "unchanged")
+        if r["dry_run"]:
+            lines = ["dry run on %s: %s, would copy %d file(s) to the file system; nothing changed"
+                     % (r["port"], img.replace("written", "to write"), r["files_copied"])]
+        else:
+            lines = ["%s: %s (%d modules), copied %d file(s), all verified, %.1f s" % (
+                r["port"], img, r["romfs_files"], r["files_copied"], r["seconds"])]
+        if r["lib_copy_on_board"]:
+            lines.append("note: %d file(s) of an earlier /lib deployment remain under /lib/roboray "
+                         "(the ROMFS comes first on sys.path)" % r["lib_copy_on_board"])
+        if "app_state" in r:
+            lines.append("started: %s (%s)" % (r["banner"], r["app_state"]))
+            lines += ["  | " + ln for ln in r["app_output"].splitlines()[1:]]
+        return "\n".join(lines)
+    if r.get("romfs_unavailable"):
+        head = "no ROMFS: %s; deployed to /lib\n" % r["romfs_unavailable"]
+        return head + _deploy_text(dict(r, romfs_unavailable=None))
     if r["dry_run"]:
         head = "dry run on %s: would copy %d file(s) (%d B), remove %d, keep %d; nothing changed" % (
             r["port"], r["files_copied"], r["bytes_to_send"], r["files_removed"], r["files_unchanged"])
@@ -138,6 +175,9 @@ def build_parser():
                 "copy what differs to the board, verified and safe to interrupt, then restart it")
     _board_options(p)
     _build_options(p)
+    p.add_argument("--target", choices=("auto", "romfs", "lib"), default="auto",
+                   help="where the board code goes: the Pico 2's ROMFS partition (runs in place from flash, "
+                        "off the heap), /lib on its file system, or auto: ROMFS when the board has it (default)")
     p.add_argument("--dry-run", action="store_true", help="say what would change, change nothing")
     p.add_argument("--rehash", action="store_true", help="trust no manifest: hash every file on the board")
     p.add_argument("--no-reset", action="store_true", help="leave the board at its REPL instead of restarting it")
