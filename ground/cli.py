@@ -17,7 +17,7 @@ import sys
 import time
 from typing import Any, Optional, Sequence
 
-from roboray.tools.cli import CliError, UsageError, add_json, command, emit, make_parser, number, run
+from roboray.tools.cli import CliError, UsageError, add_json, command, emit, make_parser, number, output_file, run
 
 
 def do_ports(args: argparse.Namespace) -> None:
@@ -208,6 +208,7 @@ def do_param(args: argparse.Namespace) -> None:
             link.close()
         emit(args, {name: got}, lambda r: "%s %s (was %s)" % (name, fmt_value(got, ptype), fmt_value(now, ptype)))
     elif action == "save":
+        _writable(rest[0])
         values = _fetch_all(args)
         paramfile.save(rest[0], ((k, fmt_value(*values[k])) for k in sorted(values)))
         emit(args, {"file": rest[0], "count": len(values)}, lambda r: "saved %d parameters to %s" % (len(values), rest[0]))
@@ -242,6 +243,14 @@ def _read_param_file(path: str) -> dict:
         return paramfile.load(path)
     except paramfile.ParamFileError as exc:
         raise CliError(str(exc))
+
+
+def _writable(path: str) -> None:
+    """Refuse an output path before the link is opened, not after the work."""
+    try:
+        output_file(path)
+    except argparse.ArgumentTypeError as exc:
+        raise UsageError(str(exc))
 
 
 def _unchanged(err: Exception) -> str:
@@ -378,6 +387,7 @@ def _log_record(args: argparse.Namespace) -> None:
 
     if not args.master:
         raise UsageError("log record needs --master")
+    _writable(args.file)
     link = _connect(args)
     count = 0
     end = math.inf if args.duration is None else time.monotonic() + args.duration
@@ -537,7 +547,7 @@ def build_parser():
     p = command(sub, "log", do_log, "record a tlog, or plot one")
     p.add_argument("action", choices=("record", "plot"))
     p.add_argument("file", metavar="FILE.tlog")
-    p.add_argument("--out", help="plot: the PNG to write")
+    p.add_argument("--out", type=output_file, help="plot: the PNG to write")
     p.add_argument("--duration", type=float, default=None, help="record: stop after this many seconds")
     g = p.add_argument_group("link (record)")
     g.add_argument("--master", help="serial port or pymavlink connection string")

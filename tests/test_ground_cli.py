@@ -179,19 +179,39 @@ def test_signed_tlog_dump_checks_signatures(signed_vehicle, tmp_path):
 
 
 def test_watch_prints_lines_when_piped_and_sees_the_link_drop_and_return(vehicle):
+    import threading
+
     proc = subprocess.Popen([sys.executable, "-m", "roboray.ground.cli", "watch", "--master", vehicle.device,
-                             "--duration", "8", "--lost-after", "1.2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.5)
-    vehicle.stop()      # the vehicle falls silent for well over the 1.2 s...
-    time.sleep(3.5)
-    vehicle.resume()    # ...and comes back
-    out, err = proc.communicate(timeout=30)
-    assert proc.returncode == 0, err
-    lines = out.splitlines()
+                             "--duration", "30", "--lost-after", "1.2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list = []
+    seen = threading.Event()
+
+    def read() -> None:
+        for line in proc.stdout:
+            lines.append(line.rstrip("\n"))
+            if "waiting" not in line:
+                seen.set()
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    try:
+        # a loaded machine may take seconds to start the CLI: drop the link only once it has seen it
+        assert seen.wait(20), lines
+        time.sleep(1.0)
+        vehicle.stop()      # the vehicle falls silent for well over the 1.2 s...
+        time.sleep(3.5)
+        vehicle.resume()    # ...and comes back
+        time.sleep(2.5)
+    finally:
+        proc.terminate()
+        err = proc.communicate(timeout=30)[1]
+        reader.join(timeout=10)
+    assert proc.returncode in (0, -15), err
+    out = "\n".join(lines)
     assert len(lines) >= 3 and "\x1b" not in out  # plain lines (about one a second), no ANSI codes
     states = ["lost" if "LINK LOST" in line else "ok" for line in lines if "waiting" not in line]
     first_lost = states.index("lost")
-    assert "ok" in states[:first_lost] and "ok" in states[first_lost:]
+    assert "ok" in states[:first_lost] and "ok" in states[first_lost:], out
     assert "disarmed" in out or "ARMED" in out
 
 
@@ -269,3 +289,13 @@ def test_tlog_dump_says_what_is_wrong_with_a_file(tmp_path):
     assert r.returncode == 1 and "none of its 5 messages is HEARTBEAT" in r.stderr
     r = ground("tlog", "dump", str(tmp_path / "ok.tlog"), "--types", "attitude", "--json")
     assert r.returncode == 0 and len(r.stdout.splitlines()) == 5 and r.stderr == ""
+
+
+def test_output_paths_are_refused_before_the_link_opens():
+    # /dev/ttyNOPE0 would fail later: the path's error must come first
+    for args in (("log", "record", "/missing/dir/x.tlog", "--master", "/dev/ttyNOPE0"),
+                 ("param", "save", "/missing/dir/x.parm", "--master", "/dev/ttyNOPE0"),
+                 ("log", "plot", "x.tlog", "--out", "/missing/dir/x.png")):
+        r = ground(*args)
+        assert r.returncode == 2 and "no folder /missing/dir to write it in" in r.stderr, (args, r.stderr)
+        assert len(r.stderr.splitlines()) == 1

@@ -62,6 +62,9 @@ def test_text_output_names_the_failsafes_and_their_reports(sim):
     (("--radio", "serial"), 1, "expected pty, udp:PORT"),
     (("--target", "1,2"), 1, "--target applies to target-landing"),
     (("--depth", "0.1"), 1, "deeper than 0.3 m"),
+    # output paths are checked before the run, not after it
+    (("--tlog", "/missing/dir/x.tlog"), 2, "argument --tlog: /missing/dir/x.tlog: no folder /missing/dir"),
+    (("--plot", "/missing/dir/x.png"), 2, "argument --plot: /missing/dir/x.png: no folder /missing/dir"),
 ])
 def test_bad_arguments_are_one_line_errors(sim, args, code, words):
     proc = sim("sil", "--interpreter", "cpython", *args)

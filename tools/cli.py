@@ -70,6 +70,24 @@ def number(text: str) -> float:
     return value
 
 
+def output_file(text: str) -> str:
+    """A file to write: its folder must exist and be writable, and it must not
+    be a folder itself. Checked when the arguments are parsed, so a long run
+    never ends on a path that could not be written."""
+    import os
+
+    if not text:
+        raise argparse.ArgumentTypeError("an empty file name")
+    folder = os.path.dirname(os.path.abspath(text))
+    if not os.path.isdir(folder):
+        raise argparse.ArgumentTypeError("%s: no folder %s to write it in" % (text, folder))
+    if os.path.isdir(text):
+        raise argparse.ArgumentTypeError("%s is a folder, not a file" % text)
+    if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(text) and not os.access(text, os.W_OK)):
+        raise argparse.ArgumentTypeError("%s: not writable here (permissions)" % text)
+    return text
+
+
 def positive(text: str) -> float:
     value = number(text)
     if value <= 0:

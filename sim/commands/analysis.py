@@ -8,7 +8,7 @@ import argparse
 import numpy as np
 
 from roboray.sim.commands.dynamics import add_vehicle_options, vehicle_params, wings_deg
-from roboray.tools.cli import CliError, UsageError, add_json, command, emit, number, positive
+from roboray.tools.cli import CliError, UsageError, add_json, command, emit, number, output_file, positive
 
 
 def _model(args):
@@ -241,12 +241,12 @@ def register(sub, bench) -> None:
     p.add_argument("--step", type=positive, default=15.0, help="grid step, degrees (default 15)")
     p.add_argument("--settle", type=positive, default=40.0, help="seconds of free fall to settle (default 40)")
     p.add_argument("--no-refine", action="store_true", help="skip the local optimiser")
-    p.add_argument("--plot", metavar="FILE.png", help="glide ratio against descent speed of every trim")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="glide ratio against descent speed of every trim")
     add_vehicle_options(p)
     add_json(p)
 
     p = command(sub, "stability-map", do_stability_map, "heat maps of stability over wing configurations")
-    p.add_argument("--out", required=True, metavar="FILE.png", help="the figure to write")
+    p.add_argument("--out", required=True, type=output_file, metavar="FILE.png", help="the figure to write")
     p.add_argument("--step", type=positive, default=10.0, help="grid step, degrees (default 10)")
     p.add_argument("--settle", type=positive, default=30.0, help="seconds of free fall to settle (default 30)")
     add_vehicle_options(p)

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from roboray.tools.cli import CliError, add_json, command, emit, floats, number, positive
+from roboray.tools.cli import CliError, add_json, command, emit, floats, number, output_file, positive
 
 #: Heap bytes a cascade step may allocate on MicroPython (issue 7).
 STEP_HEAP_LIMIT = 3200
@@ -351,7 +351,7 @@ def register(sub, bench) -> None:
     p.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
     p.add_argument("--max-time", type=positive, default=60.0, metavar="S",
                    help="longest flight after release, s (default 60)")
-    p.add_argument("--plot", metavar="FILE.png", help="plot the track, depth, velocity and wings")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the track, depth, velocity and wings")
     add_json(p)
 
     p = command(sub, "montecarlo", do_montecarlo, "target landings under random model and sensor errors")
@@ -362,8 +362,8 @@ def register(sub, bench) -> None:
     p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
     p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade")
     p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
-    p.add_argument("--runs-out", metavar="FILE.json", help="write every run's figures and model errors")
-    p.add_argument("--plot", metavar="FILE.png", help="plot the landing points around their targets")
+    p.add_argument("--runs-out", type=output_file, metavar="FILE.json", help="write every run's figures and model errors")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the landing points around their targets")
     add_json(p)
 
     p = command(sub, "thesis-control", do_thesis_control,
@@ -371,7 +371,7 @@ def register(sub, bench) -> None:
     p.add_argument("--duration", type=positive, default=60.0, help="simulated seconds per run (default 60)")
     p.add_argument("--kv2", type=lambda t: floats(t, None, "--kv2"), default=[1.0, 10.0, 100.0],
                    metavar="K1,K2,...", help="K weights on the y_c velocity for sec. 5.2.2 (default 1,10,100)")
-    p.add_argument("--plot", metavar="FILE.png", help="plot the runs (cf. figs. 5.12-5.15)")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the runs (cf. figs. 5.12-5.15)")
     add_json(p)
 
     p = command(bench, "control", do_bench_control, "heap bytes and time of a controller step on MicroPython")

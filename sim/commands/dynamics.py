@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from roboray.tools.cli import CliError, add_json, command, emit, floats, number, positive
+from roboray.tools.cli import CliError, add_json, command, emit, floats, number, output_file, positive
 
 
 # ------------------------------------------------------------ shared options
@@ -195,8 +195,8 @@ def register(sub, bench) -> None:
     p.add_argument("--depth", type=positive, help="put the tank bottom at this depth, m (default: none)")
     p.add_argument("--current", type=vector3("--current"), metavar="N,E,D", help="uniform water current, m/s")
     p.add_argument("--dt", type=positive, default=0.01, help="integration step, s (default 0.01)")
-    p.add_argument("--csv", metavar="FILE", help="write the trajectory as CSV")
-    p.add_argument("--plot", metavar="FILE.png", help="plot velocities, rates, positions and wings")
+    p.add_argument("--csv", type=output_file, metavar="FILE", help="write the trajectory as CSV")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot velocities, rates, positions and wings")
     add_vehicle_options(p)
     add_json(p)
 

@@ -8,7 +8,7 @@ import logging
 
 import numpy as np
 
-from roboray.tools.cli import UsageError, add_json, command, emit
+from roboray.tools.cli import UsageError, add_json, command, emit, output_file
 
 log = logging.getLogger("roboray.sim.estimator")
 
@@ -212,5 +212,5 @@ def register(sub, bench) -> None:
     p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython cost figures")
     p.add_argument("--compare-attitude", action="store_true",
                    help="also run the multiplicative EKF in place of the Mahony filter (accuracy and cost)")
-    p.add_argument("--plot", metavar="FILE.png", help="draw estimates against truth for the first seed")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="draw estimates against truth for the first seed")
     add_json(p)

@@ -6,7 +6,7 @@ import argparse
 import logging
 import sys
 
-from roboray.tools.cli import CliError, add_json, command, emit, floats, positive
+from roboray.tools.cli import CliError, add_json, command, emit, floats, output_file, positive
 
 log = logging.getLogger("roboray.sim.sil")
 
@@ -337,9 +337,9 @@ def register(sub, bench) -> None:
                         "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")
     p.add_argument("--fault", type=fault, action="append", metavar="NAME@SECONDS",
                    help="inject a fault (repeatable): %s" % ", ".join(faults.NAMES))
-    p.add_argument("--tlog", metavar="FILE", help="record the link both ways (MAVProxy's tlog, virtual time)")
+    p.add_argument("--tlog", type=output_file, metavar="FILE", help="record the link both ways (MAVProxy's tlog, virtual time)")
     p.add_argument("--seed", type=int, default=0, help="seeds every random stream (default 0)")
-    p.add_argument("--plot", metavar="FILE.png", help="plot the track, depth, wings and the firmware's modes")
+    p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the track, depth, wings and the firmware's modes")
     p.add_argument("--depth", type=positive, help="tank bottom, m (default: the scenario's)")
     p.add_argument("--target", type=lambda s: floats(s, 2, "--target"), metavar="NORTH,EAST",
                    help="target-landing: the target, m from the release point (default 2,0)")
