@@ -1,7 +1,8 @@
 """Equations of motion of RoboRay, vectorised over N vehicles.
 
 Derivation (ours, from the kinetic energy; the printed eqs. 2.8-2.9 and
-appendix A are not used, NOTES.md lists their errors). Quasi-velocities
+appendix A are not used: A's wing-3 row of A_2 uses r_CG_1, and B is
+written both as -M^-1 D^T A and -C D^T J^-1). Quasi-velocities
 ``nu = (V, Omega)`` of the body origin O in the body frame, wing angles
 ``s`` and rates ``s_dot``. Every part is rigid, the fluid is ideal for the
 added-mass part, so the kinetic energy of body plus fluid is
@@ -27,7 +28,8 @@ constant in the inertial frame whatever the wings do.
 
 External forces (body frame, about O): weight at the CG and buoyancy at the
 CB, so the restoring moment is ``m_v g ell (z_c x Gamma)`` about the CB
-(NOTES.md: not ``m_v a_w ell``); plate-normal pressure drag on every plate at
+(not the thesis's ``m_v a_w ell``: buoyancy acts at the CB and gives no
+moment about it, so the whole weight's arm counts); plate-normal pressure drag on every plate at
 its centroid velocity (vehicle translation, rotation and the wing's own hinge
 rate), ``-1/2 rho C_D A u_n |u_n| n`` (sec. 2.2.1); rotational pressure drag
 of each plate about its in-plane axes (eq. 2.1, corrected: see

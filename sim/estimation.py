@@ -417,7 +417,9 @@ def run_seed(seed: int, source: str = "dynamics", scenario: Scenario = STANDARD)
 
 
 # ------------------------------------------------------- board-side costs
-#: Published cost of one boxed-float operation on an RP2350 (NOTES.md), us.
+#: Cost of one boxed-float operation on an RP2350 at 150 MHz, us: the widely quoted
+#: ``c = a * b`` loop figure (not traced to a measurement; the emulated board
+#: counts 7.8 us for that loop, docs/design/board-time-calibration.md).
 RP2350_US_PER_FLOAT = 7.2
 
 _MEASURE = """

@@ -6,7 +6,7 @@ it, for any wing configuration, the quantities the dynamics and the analyses
 use: plate geometry, rigid-body mass properties, added mass (thesis eqs.
 2.2-2.4, Table 2.1), centres of gravity and buoyancy.
 
-Frames (NOTES.md): body origin O at the centre of the centre plate's
+Frames (the thesis's sec. 2.1, with the origin moved to the plate): body origin O at the centre of the centre plate's
 mid-plane, ``x_c`` towards wing 1, ``y_c`` towards wing 2, ``z_c`` along the
 symmetry axis, down when the vehicle descends level; the dome is on the
 ``-z_c`` side. Wing ``i`` (1..4) is hinged on the side at azimuth

@@ -70,7 +70,7 @@ def test_datasheet_example_and_its_floor_division():
     out = [0, 0]
     assert ms5837.compensate(DATASHEET_C, 4958179, 6815414, out) == OK
     assert out == [39998, 1981]  # C-style truncation would give TEMP 1982
-    # NOTES.md: OFF = 2381323464 (the datasheet prints 2381326464, a typo)
+    # the datasheet's formula gives OFF = 2381323464; its example prints 2381326464, a typo
     dt = 6815414 - DATASHEET_C[5] * 256
     assert DATASHEET_C[2] * 2**16 + DATASHEET_C[4] * dt // 2**7 == 2381323464
 

@@ -64,7 +64,7 @@ def test_acrylic_wings_cannot_give_the_thesis_ell_rise():
 @pytest.mark.parametrize("wings_deg", [(10, 20, 30, 40), (0, 90, 45, 5), (90, 90, 0, 0)])
 def test_trace_invariant(wings_deg):
     """Each plate's added mass is rank one along its normal: m1 + m2 + m3 - 3 m_v
-    is the total added mass whatever the configuration (NOTES.md)."""
+    is the total added mass whatever the configuration."""
     props = Vehicle().properties(np.radians(wings_deg))
     assert props["m1"] + props["m2"] + props["m3"] - 3 * 1.0625 == pytest.approx(1.202, abs=2e-4)
 

@@ -8,7 +8,7 @@ cancelling as forces, Leonard's equations [9] read
 
     Pi_dot    = Pi x Omega + P x V + m_v g ell (z_c x Gamma)     (the moment is
     P_dot     = P x Omega                                         m_v g ell, not
-    Gamma_dot = Gamma x Omega                                     m_v a_w ell: NOTES)
+    Gamma_dot = Gamma x Omega                                     m_v a_w ell: see dynamics.py)
 
 Equilibria (sec. 3.1.2-3.1.3):
 

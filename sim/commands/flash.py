@@ -12,7 +12,7 @@ the times include starting Python. Three cases for each:
 - ``one_changed``: one module edited and rebuilt.
 
 The board is wiped between the tools. The virtual board declines
-raw-paste (NOTES.md), so both tools send through the plain raw REPL, which
+raw-paste (the WebAssembly port mishandles it: ``tools/micropython/virtual_board.py``), so both tools send through the plain raw REPL, which
 mpremote paces at 256 bytes every 10 ms: the figures rank the two tools,
 a Pico 2 on USB (raw-paste) is faster with both.
 """

@@ -8,7 +8,7 @@ against the twin's emulated Pico 2 and sensors. For every driver task:
   twin pays), and ``emulation_us``: the same hardware accesses alone;
 - ``board_us``: a rough RP2350 figure, the driver's own time (``us`` minus
   ``emulation_us``) times the slowdown of an RP2350 at 150 MHz against this
-  interpreter (``rp2350_slowdown``, NOTES.md's ``c = a * b`` loop timed in
+  interpreter (``rp2350_slowdown``, the quoted 7.2 us ``c = a * b`` loop timed in
   the same run, so both see the same machine load), plus ``i2c_us``, the
   time the transfers hold a 400 kHz I2C bus (rp2's I2C calls block).
 
@@ -24,7 +24,8 @@ import argparse
 
 from roboray.tools.cli import add_json, command, emit
 
-#: Published cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (NOTES.md).
+#: Quoted cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (the emulated
+#: board counts 7.8 us: docs/design/board-time-calibration.md).
 RP2350_US_PER_MUL = 7.2
 
 _SETUP = """

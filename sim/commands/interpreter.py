@@ -1,6 +1,7 @@
 """``roboray-sim bench micropython``: what a float costs on the test interpreter.
 
-NOTES.md's board figures (RP2350: 7.2 us a ``c = a * b`` iteration) are
+The quoted board figure (RP2350 at 150 MHz: 7.2 us a ``c = a * b`` iteration;
+the emulated board counts 7.8 us, docs/design/board-time-calibration.md) is
 comparable with this loop; dividing the two gives the factor that turns a
 time measured here into a rough board time.
 """
@@ -11,7 +12,7 @@ import argparse
 
 from roboray.tools.cli import add_json, command, emit
 
-#: Published cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (NOTES.md).
+#: Quoted cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (see above).
 RP2350_US_PER_MUL = 7.2
 
 _LOOP = """

@@ -8,7 +8,7 @@ and 10/11/2015):
 - pressure resolution RMS at OSR 8192: 0.2 mbar = 20 Pa ("high-resolution
   module 0.2 mbar", "water depth resolution of 2 mm");
 - ADC conversion time at OSR 8192: 16.44 ms typical, 18.08 ms maximum
-  (NOTES.md: hence about 27 Hz for a pressure-temperature pair);
+  (so a pressure-temperature pair takes up to 36.2 ms: about 27 Hz);
 - output ``P`` in 0.1 mbar (the datasheet's example P = 39998 = 3999.8
   mbar), so 10 Pa quantisation; ``TEMP`` in 0.01 degC;
 - range 0-30 bar.

@@ -3,8 +3,7 @@
 Host tools (pyserial, mpremote, the flashing tool) open the pseudo-terminal's
 device path as they would ``/dev/ttyACM0``. Behind it runs the WebAssembly
 port in REPL mode (``host.mjs repl``); this module carries the bytes and
-mends, at the byte stream, the three ways the port differs from a board
-(NOTES.md):
+mends, at the byte stream, the three ways the port differs from a board:
 
 - raw-paste (``Ctrl-E A Ctrl-A`` in the raw REPL) is mishandled: we answer
   ``R\\x00`` ("not supported") ourselves, so the host falls back to the plain
