@@ -31,8 +31,12 @@ MESSAGES = (
     "BATTERY_STATUS", "STATUSTEXT", "NAMED_VALUE_FLOAT", "NAMED_VALUE_INT", "PARAM_REQUEST_LIST",
     "PARAM_REQUEST_READ", "PARAM_SET", "PARAM_VALUE", "COMMAND_LONG", "COMMAND_ACK",
     "SET_POSITION_TARGET_LOCAL_NED", "POSITION_TARGET_LOCAL_NED", "ATT_POS_MOCAP",
-    "TIMESYNC", "RADIO_STATUS",
+    "TIMESYNC", "RADIO_STATUS", "SETUP_SIGNING",
 )
+
+#: Message ids ``WIRE`` covers: 0 up to SETUP_SIGNING (256), the one id
+#: above 255 the vehicle takes (the parser's and framer's ``_W_IDS``).
+WIRE_IDS = 257
 
 #: Enum entries the endpoint and the ground station use, by enum name.
 ENUMS = {
@@ -178,7 +182,7 @@ def generate(xml: Path) -> str:
         "``python -m roboray.tools.mavgen``.",
         "",
         "The board's table is ``WIRE``, one bytes constant, three bytes a message",
-        "id ``m`` below 256: ``WIRE[3 * m + WIRE_CRC_EXTRA]`` its CRC_EXTRA,",
+        "id ``m`` below ``WIRE_IDS``: ``WIRE[3 * m + WIRE_CRC_EXTRA]`` its CRC_EXTRA,",
         "``WIRE[3 * m + WIRE_MIN_LEN]`` its MAVLink 1 payload (base fields),",
         "``WIRE[3 * m + WIRE_MAX_LEN]`` its MAVLink 2 payload (with extensions), 0",
         "for an unknown id. A bytes constant is one object with no children for the",
@@ -210,6 +214,8 @@ def generate(xml: Path) -> str:
         "WIRE_CRC_EXTRA = const(0)",
         "WIRE_MIN_LEN = const(1)",
         "WIRE_MAX_LEN = const(2)",
+        "#: Message ids WIRE covers (0 to WIRE_IDS - 1)",
+        "WIRE_IDS = const(%d)" % WIRE_IDS,
         "",
         "# Message ids",
     ]
@@ -219,12 +225,12 @@ def generate(xml: Path) -> str:
     for m in chosen:
         out.append('%s_FMT = "%s"' % (m.name, m.fmt))
         out.append("%s_LEN = const(%d)" % (m.name, m.max_len))
-    wire = bytearray(3 * 256)
+    wire = bytearray(3 * WIRE_IDS)
     for m in chosen:
-        if not 0 <= m.id < 256 or not 0 < m.max_len < 256:
+        if not 0 <= m.id < WIRE_IDS or not 0 < m.max_len < 256:
             raise ValueError("%s: id %d / length %d do not fit WIRE" % (m.name, m.id, m.max_len))
         wire[3 * m.id:3 * m.id + 3] = bytes((m.crc_extra, m.min_len, m.max_len))
-    out += ["", "# CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-255",
+    out += ["", "# CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-%d" % (WIRE_IDS - 1),
             "# (three zeros: unknown)", "WIRE = ("]
     for k in range(0, len(wire), 48):
         out.append('    b"%s"' % "".join("\\x%02x" % b for b in wire[k:k + 48]))

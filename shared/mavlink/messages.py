@@ -3,7 +3,7 @@ common.xml (common.xml). Do not edit; regenerate with
 ``python -m roboray.tools.mavgen``.
 
 The board's table is ``WIRE``, one bytes constant, three bytes a message
-id ``m`` below 256: ``WIRE[3 * m + WIRE_CRC_EXTRA]`` its CRC_EXTRA,
+id ``m`` below ``WIRE_IDS``: ``WIRE[3 * m + WIRE_CRC_EXTRA]`` its CRC_EXTRA,
 ``WIRE[3 * m + WIRE_MIN_LEN]`` its MAVLink 1 payload (base fields),
 ``WIRE[3 * m + WIRE_MAX_LEN]`` its MAVLink 2 payload (with extensions), 0
 for an unknown id. A bytes constant is one object with no children for the
@@ -35,6 +35,8 @@ ARRAYS = const(6)
 WIRE_CRC_EXTRA = const(0)
 WIRE_MIN_LEN = const(1)
 WIRE_MAX_LEN = const(2)
+#: Message ids WIRE covers (0 to WIRE_IDS - 1)
+WIRE_IDS = const(257)
 
 # Message ids
 MSG_HEARTBEAT = const(0)
@@ -61,6 +63,7 @@ MSG_BATTERY_STATUS = const(147)
 MSG_NAMED_VALUE_FLOAT = const(251)
 MSG_NAMED_VALUE_INT = const(252)
 MSG_STATUSTEXT = const(253)
+MSG_SETUP_SIGNING = const(256)
 
 # Wire formats (little-endian, wire order) and full payload lengths
 HEARTBEAT_FMT = "<IBBBBB"
@@ -111,8 +114,10 @@ NAMED_VALUE_INT_FMT = "<Ii10s"
 NAMED_VALUE_INT_LEN = const(18)
 STATUSTEXT_FMT = "<B50sHB"
 STATUSTEXT_LEN = const(54)
+SETUP_SIGNING_FMT = "<QBB32B"
+SETUP_SIGNING_LEN = const(42)
 
-# CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-255
+# CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-256
 # (three zeros: unknown)
 WIRE = (
     b"\x32\x09\x09\x7c\x1f\x2b\x89\x0c\x0c\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
@@ -131,6 +136,7 @@ WIRE = (
     b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
     b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
     b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xaa\x12\x12\x2c\x12\x12\x53\x33\x36\x00\x00\x00\x00\x00\x00"
+    b"\x47\x2a\x2a"
 )
 
 

@@ -54,7 +54,7 @@ _SOURCES = const(8)
 _W_CRC_EXTRA = const(0)
 _W_MIN_LEN = const(1)
 _W_MAX_LEN = const(2)
-_W_IDS = const(256)
+_W_IDS = const(257)      # messages.WIRE_IDS: ids 0-255 and SETUP_SIGNING (256)
 
 
 class Parser:

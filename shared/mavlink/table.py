@@ -38,4 +38,5 @@ TABLE = {
     251: ("NAMED_VALUE_FLOAT", 170, 18, 18, _m.NAMED_VALUE_FLOAT_FMT, ("time_boot_ms", "value", "name",), (0, 0, 0,)),
     252: ("NAMED_VALUE_INT", 44, 18, 18, _m.NAMED_VALUE_INT_FMT, ("time_boot_ms", "value", "name",), (0, 0, 0,)),
     253: ("STATUSTEXT", 83, 51, 54, _m.STATUSTEXT_FMT, ("severity", "text", "id", "chunk_seq",), (0, 0, 0, 0,)),
+    256: ("SETUP_SIGNING", 71, 42, 42, _m.SETUP_SIGNING_FMT, ("initial_timestamp", "target_system", "target_component", "secret_key",), (0, 0, 0, 32,)),
 }
