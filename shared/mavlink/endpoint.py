@@ -39,10 +39,24 @@ while the generated message table lacks the former): the longest slot in
 microseconds since the previous report, from ``slot_max_us``, which the
 firmware raises every slot and the report starts over.
 
-Signing: when ``signing`` has a key, every frame we send is signed, and
-every incoming frame must carry a valid, fresh signature, except
-RADIO_STATUS, which the radio itself inserts unsigned (MAVLink's rule);
-refused frames count in ``rejected``.
+Signing (docs/design/signing.md): when ``signing`` has a key, every frame
+we send is signed, and every incoming frame must carry a valid, fresh
+signature (``shared/mavlink/signing.py``: stream replay, new-stream age and
+the bound ahead of our clock), except ``UNSIGNED_OK``: RADIO_STATUS and
+RADIO, which the radio itself inserts unsigned (ArduPilot's list).
+``signing.tick`` advances the signing clock every update. Refused frames
+count in ``rejected``, ``unsigned`` and the ``Signing`` counters
+(``bad``, ``replays``, ``future``); SYS_STATUS carries them
+(``errors_count2``: unsigned and wrong-key frames, ``errors_count3``:
+replayed, too old and far-future ones) and the first refusal each
+``REFUSAL_TEXT_MS`` is told by STATUSTEXT, saying why.
+
+SETUP_SIGNING (MAVProxy's ``signing setup``) sets the key (all zeros: off)
+and moves the clock up to its ``initial_timestamp``; refused while armed.
+With a key set it must itself be signed with that key (the general rule):
+only the key's holder changes or removes it. Without a key it is taken
+unsigned, as every command is then. ``on_setup_signing()`` (the firmware's
+flash record) is called after.
 
 Allocation: reading and framing allocate nothing but a 16-byte view per
 copy; handling a frame unpacks one tuple of its numbers (and boxes its
@@ -114,6 +128,14 @@ _SLOT_NAME = b"SLOT_MAX"          # longest loop slot (us) since the last report
 # MESSAGES); until then as NAMED_VALUE_FLOAT, which carries the microseconds exactly too.
 _MSG_SLOT = getattr(msg, "MSG_NAMED_VALUE_INT", msg.MSG_NAMED_VALUE_FLOAT)
 _SLOT_FMT = getattr(msg, "NAMED_VALUE_INT_FMT", msg.NAMED_VALUE_FLOAT_FMT)
+
+#: Taken unsigned when a key is set: what the radio itself inserts
+#: (ArduPilot's accept list: RADIO_STATUS, RADIO).
+UNSIGNED_OK = (msg.MSG_RADIO_STATUS, 166)   # 166: RADIO (not in our table)
+#: A refusal is told by STATUSTEXT at most once this often (ms).
+REFUSAL_TEXT_MS = 10000
+_WHY = ("", "wrong key", "replayed or old", "far-future")   # Signing.reason
+_REASON_SIGNING_ARMED = "signing setup refused: disarm first"
 
 _REASON_REBOOT_ARMED = "reboot refused: disarm first"
 _REASON_BAD_MODE_FLAGS = "DO_SET_MODE needs MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"
@@ -255,6 +277,9 @@ class Endpoint:
         self.slot_max_us = -1
         # counters
         self.rejected = 0
+        self.unsigned = 0             # unsigned frames refused (a key is set)
+        self._refusal_ms = -1         # when a refusal was last told
+        self.on_setup_signing = None  # called after SETUP_SIGNING changed key or clock
         self.handled = 0
         self.commands = 0
 
@@ -263,6 +288,8 @@ class Endpoint:
         """Read and handle what arrived, then send what is due."""
         now = now_ms & _TICKS_MASK
         self.now_ms = now
+        if self.signing is not None:
+            self.signing.tick(now)
         self._budget = self._frames
         # a frame parsed in the last update is handled first
         p = self.parser
@@ -414,8 +441,8 @@ class Endpoint:
     def _handle(self, p):
         mid = p.msgid
         s = self.signing
-        if s is not None and s.key is not None and not p.sig_ok and mid != msg.MSG_RADIO_STATUS:
-            self.rejected += 1
+        if s is not None and s.key is not None and not p.sig_ok and mid != msg.MSG_RADIO_STATUS and mid != 166:
+            self._refused(p, s)
             return
         self.handled += 1
         pl = p.payload
@@ -466,6 +493,9 @@ class Endpoint:
                 w = self.writer
                 struct.pack_into(msg.TIMESYNC_FMT, w.buf, w.payload, self.now_ms * 1000000, ts1)
                 self._send(msg.MSG_TIMESYNC)
+        elif mid == msg.MSG_SETUP_SIGNING:
+            if self._for_us(pl[8], pl[9]):
+                self._setup_signing(pl)
         elif mid == msg.MSG_RADIO_STATUS:
             r = self.radio
             r[0] = pl[4]
@@ -476,6 +506,41 @@ class Endpoint:
             r[5] = pl[0] | (pl[1] << 8)
             r[6] = pl[2] | (pl[3] << 8)
             self.radio_count += 1
+
+    def _refused(self, p, s):
+        """Count a frame signing refused; tell the first one each REFUSAL_TEXT_MS."""
+        self.rejected += 1
+        if not p.signed:
+            self.unsigned += 1
+        last = self._refusal_ms
+        if last >= 0 and ticks_diff(self.now_ms, last) < REFUSAL_TEXT_MS:
+            return
+        self._refusal_ms = self.now_ms
+        why = "unsigned" if not p.signed else _WHY[s.reason]
+        self.send_text(msg.MAV_SEVERITY_WARNING, "signing: %s msg %d from %d refused (%d)" % (
+            why, p.msgid, p.sysid, self.rejected))
+
+    def _setup_signing(self, pl):
+        s = self.signing
+        if s is None:
+            return
+        if self.modes.armed:
+            self.send_text(msg.MAV_SEVERITY_WARNING, _REASON_SIGNING_ARMED)
+            return
+        key = bytes(pl[10:42])
+        off = True
+        for b in key:
+            if b:
+                off = False
+                break
+        s.set_key(None if off else key)
+        # initial_timestamp as 16-bit words: its 24-bit halves stay small ints
+        w0, w1, w2 = struct.unpack_from("<3H", pl, 0)
+        s.advance((w1 >> 8) | (w2 << 8), w0 | ((w1 & 0xFF) << 16))
+        s.synced = True
+        if self.on_setup_signing is not None:
+            self.on_setup_signing()
+        self.send_text(msg.MAV_SEVERITY_INFO, "signing off" if off else "signing key set")
 
     def _for_us(self, target_system, target_component):
         return (target_system == self.sysid or target_system == 0) and (
@@ -679,10 +744,16 @@ class Endpoint:
             total = par.frames + par.lost
             if total > 0:
                 drop = (par.lost * 10000) // total
+            sg = self.signing
+            auth = 0     # signing refusals: unsigned and wrong key; replayed, old and far-future
+            stale = 0
+            if sg is not None:
+                auth = (self.unsigned + sg.bad) & 0xFFFF
+                stale = (sg.replays + sg.future) & 0xFFFF
             struct.pack_into(msg.SYS_STATUS_FMT, b, o, t.sensors_present, t.sensors_enabled, t.sensors_health,
                              t.load_permille, mv, _clamp16(bat[1] * 100.0), drop,
                              (par.crc_errors + par.bad_header) & 0xFFFF, t.failsafe_flags & 0xFFFF,
-                             0, 0, 0, int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0)
+                             auth, stale, 0, int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0)
             self._send(msg.MSG_SYS_STATUS)
         elif f == _F_TIME:
             struct.pack_into(msg.SYSTEM_TIME_FMT, b, o, 0, now)

@@ -13,6 +13,19 @@ stream; an older or equal one is a replay. A stream never seen before is
 refused when it is more than a minute older than our own clock (pymavlink's
 rule), so an old recording cannot open a new stream.
 
+Our clock: ``tick(now_ms)`` advances it with the board's monotonic clock;
+an accepted frame moves it up to the frame's timestamp; the owner sets it at
+boot from flash (``advance``) and persists it (``firmware/link.py``). One
+frame may move it by a bounded step only: a frame more than ``AHEAD_S``
+(10 minutes) ahead of our clock is refused and counted in ``future``, not
+adopted, so a frame stamped far in the future (a ground whose clock was
+wrong, recorded and replayed) cannot push the clock where the legitimate
+ground's frames look like old recordings. Until the first frame is accepted
+after a boot (``synced`` False) the bound is ``BOOT_AHEAD_S`` (30 days): a
+vehicle that was off for days starts behind the ground's wall clock and
+must catch up once. A clock never set (under 2**24 units, 168 s past 2015:
+no record, no SETUP_SIGNING) takes the first authentic frame's time.
+
 Timestamps exceed the boards' 31-bit small integers, so they are kept as two
 24-bit halves (``hi``, ``lo``): comparing and incrementing them never makes
 a big integer on the heap.
@@ -32,6 +45,23 @@ _HALF = const(0x1000000)       # 2**24
 _MASK = const(0xFFFFFF)
 _NEW_STREAM_SLACK = const(6000000)  # 60 s in 10 us units, pymavlink's window
 _UNIX_2015 = 1420070400        # 2015-01-01 00:00 UTC in unix seconds
+# the bounds on one frame's step ahead of our clock, as 24-bit halves
+_AHEAD_HI = const(3)           # 10 min = 60 000 000 units = 3 * 2**24 + 9 668 352
+_AHEAD_LO = const(9668352)
+_BOOT_AHEAD_HI = const(15449)  # 30 days = 259 200 000 000 units
+_BOOT_AHEAD_LO = const(8790016)
+_TICK_CAP_MS = const(10000000)  # a tick's step at most (keeps d * 100 a small int)
+
+#: How far one accepted frame may be ahead of our clock (s), and before the
+#: first accepted frame after a boot.
+AHEAD_S = 600
+BOOT_AHEAD_S = 30 * 86400
+
+#: Why the last frame was refused (``reason``).
+REFUSED_NONE = 0
+REFUSED_BAD = 1        # signature mismatch: wrong key or damaged
+REFUSED_REPLAY = 2     # not newer than its stream's last, or a new stream too old
+REFUSED_FUTURE = 3     # further ahead of our clock than the bound
 
 
 def key_from_passphrase(passphrase):
@@ -70,6 +100,11 @@ class Signing:
         self.good = 0
         self.bad = 0      # signature mismatch
         self.replays = 0  # timestamp not newer than the stream's last
+        self.future = 0   # too far ahead of our clock (AHEAD_S)
+        self.reason = REFUSED_NONE
+        #: a frame was accepted (or the clock set by SETUP_SIGNING) since boot
+        self.synced = False
+        self._ms = -1     # tick()'s last board time
         self._sig = bytearray(6)
         self.set_key(key)
 
@@ -84,6 +119,33 @@ class Signing:
         self.key = None if key is None else bytes(key)
         for i in range(len(self._keys)):
             self._keys[i] = -1
+
+    def advance(self, hi, lo):
+        """Move our timestamp up to ``hi * 2**24 + lo`` (never back)."""
+        self._advance_to(hi, lo)
+
+    def set_timestamp(self, ts):
+        """Move our timestamp up to ``ts`` (10 us units since 2015; host side)."""
+        self._advance_to(ts >> 24, ts & _MASK)
+
+    def tick(self, now_ms):
+        """Advance our clock by the board time since the last call (ms, ticks_ms)."""
+        last = self._ms
+        self._ms = now_ms
+        if last < 0:
+            return
+        d = (now_ms - last) & 0x3FFFFFFF
+        if d <= 0 or d >= 0x20000000:
+            return
+        if d > _TICK_CAP_MS:
+            d = _TICK_CAP_MS
+        lo = self.lo + d * 100
+        hi = self.hi
+        while lo > _MASK:
+            lo -= _HALF
+            hi += 1
+        self.hi = hi
+        self.lo = lo
 
     def set_unix_time(self, seconds):
         """Move our timestamp up to a wall-clock time (never back)."""
@@ -145,10 +207,26 @@ class Signing:
         for i in range(6):
             if s[i] != buf[flen - 6 + i]:
                 self.bad += 1
+                self.reason = REFUSED_BAD
                 return False
         link = buf[base]
         lo = buf[base + 1] | (buf[base + 2] << 8) | (buf[base + 3] << 16)
         hi = buf[base + 4] | (buf[base + 5] << 8) | (buf[base + 6] << 16)
+        # a bounded step ahead: further is refused, never adopted
+        if self.synced:
+            ahi = self.hi + _AHEAD_HI
+            alo = self.lo + _AHEAD_LO
+        else:
+            ahi = self.hi + _BOOT_AHEAD_HI
+            alo = self.lo + _BOOT_AHEAD_LO
+        if alo > _MASK:
+            alo -= _HALF
+            ahi += 1
+        # (a clock under 2**24 units, 168 s past 2015, was never set: no bound)
+        if (hi > ahi or (hi == ahi and lo > alo)) and self.hi:
+            self.future += 1
+            self.reason = REFUSED_FUTURE
+            return False
         key = (link << 16) | (sysid << 8) | compid
         keys = self._keys
         slot = -1
@@ -159,6 +237,7 @@ class Signing:
         if slot >= 0:
             if hi < self._hi[slot] or (hi == self._hi[slot] and lo <= self._lo[slot]):
                 self.replays += 1
+                self.reason = REFUSED_REPLAY
                 return False
         else:
             # A new stream must not be much older than our clock.
@@ -169,6 +248,7 @@ class Signing:
                 ohi -= 1
             if hi < ohi or (hi == ohi and lo < olo):
                 self.replays += 1
+                self.reason = REFUSED_REPLAY
                 return False
             slot = 0
             for i in range(1, len(keys)):
@@ -180,5 +260,6 @@ class Signing:
         self._tick += 1
         self._age[slot] = self._tick
         self._advance_to(hi, lo)
+        self.synced = True
         self.good += 1
         return True
