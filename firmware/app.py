@@ -69,10 +69,12 @@ from roboray.firmware.drivers.servo import Servo, Wings
 from roboray.firmware import failsafe as failsafe_mod
 from roboray.firmware import navigation as navigation_mod
 from roboray.firmware.failsafe import Failsafes
+from roboray.firmware.flash_record import FlashRecord
 from roboray.firmware.flight import Flight
 from roboray.firmware.link import Link
 from roboray.firmware.navigation import Navigation
 from roboray.firmware.param_store import ParamStore
+from roboray.firmware.resume import Resume
 from roboray.firmware.scheduler import Scheduler
 from roboray.firmware.telemetry import Reporter
 from roboray.shared import modes as modes_mod
@@ -105,6 +107,8 @@ GC_STALL_MS = 100
 
 WDT_TIMEOUT_MS = 1000
 PARAM_PATH = "/params.bin"
+#: The dive's state on flash (``firmware/resume.py``), beside the parameters.
+STATE_FILE = "dive.bin"
 
 #: Every parameter the application declares: the shared ones, the drivers',
 #: navigation's, the failsafes' and the controller's.
@@ -134,6 +138,15 @@ def banner():
         return build_info.BANNER
     except (ImportError, AttributeError):
         return UNKNOWN_BANNER
+
+
+def reset_cause_word(machine, cause):
+    """``"watchdog"``, ``"power"`` or ``"other"``: what ``Resume`` says."""
+    if cause == getattr(machine, "WDT_RESET", -1):
+        return "watchdog"
+    if cause == getattr(machine, "PWRON_RESET", -1):
+        return "power"
+    return "other"
 
 
 def reset_cause_name(machine, cause):
@@ -174,6 +187,7 @@ class Vehicle:
         self.flight = None
         self.controller = None
         self.reporter = None
+        self.resume = None
         self.problems = []
         self.warnings = []
 
@@ -256,6 +270,13 @@ class Vehicle:
             self.controller = control_mod.Controller(self.params)
             fs.has_controller = True
         self.flight = Flight(modes, self.wings, nav, fs, link.ep, t, self.params, self.clock, self.controller)
+        path = self.store.path
+        record = FlashRecord(path[:path.rfind("/") + 1] + STATE_FILE, self.store.fs)
+        scratch_of = getattr(self.profile, "scratch", None)
+        cause = reset_cause_word(m, reset_cause)
+        self.resume = Resume(nav, modes, t, link.ep, self.params, scratch_of(m) if scratch_of else None,
+                             record, cause, self.clock)
+        print(self.resume.describe())
 
     def build_loop(self, reset_cause=0):
         """The scheduler with the vehicle's eight tasks."""
@@ -263,16 +284,23 @@ class Vehicle:
         s.add("nav", self.nav.step, MAIN_MS)
         s.add("link", self.link.step, RADIO_MS)
         s.add("depth", self.nav.depth_step, DEPTH_MS, phase=1)
-        s.add("control", self.flight.step, CONTROL_MS)
+        s.add("control", self.control, CONTROL_MS)
         s.add("leak", self.leak.update, LEAK_MS, phase=3)
         s.add("battery", self.battery.update, BATTERY_MS, phase=5)
         s.add("params", self.store.service, PARAMS_MS, phase=7)
         s.add("gc", self.collect, GC_MS, phase=GC_PHASE)
         self.sched = s
         self.store.expect_delay = s.expect_delay_ms
+        self.resume.record.expect_delay = s.expect_delay_ms
         self.failsafes.sched = s
         self.reporter.sched = s
         return s
+
+    def control(self):
+        """The control task: the flight step, then the dive's state kept
+        (``Resume``: saved only when an event changed it)."""
+        self.flight.step()
+        self.resume.update()
 
     def collect(self):
         """The loop's collection: a stall the scheduler is told of first."""

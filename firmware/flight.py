@@ -4,9 +4,9 @@
 
 1. every fifth call (10 Hz) the failsafes are evaluated, so an action they
    take (FAILSAFE mode, disarm) shapes this very step's commands;
-2. a mode change is acted on: the operator's arming (DISARMED to PASSIVE)
-   zeroes the depth at the surface (``Navigation.zero_at_surface``) and
-   clears a watchdog reset's report;
+2. a mode change is acted on: the operator's arming (``Modes.arms``; a
+   mode restored after a reset is none) zeroes the depth at the surface
+   (``Navigation.zero_at_surface``) and clears a watchdog reset's report;
    entering a controlled mode resets the controller and gives it its
    setpoint (TARGET: the target from the ground, with its depth when the
    ground gave one, which is the bottom's there; VELOCITY: the ground's
@@ -75,6 +75,7 @@ class Flight:
         self._clock = clock
         self._n = 0
         self._changes = modes.changes
+        self._arms = modes.arms
         self._mode = modes.mode
         self._target_seen = -1
         self._velocity_seen = -1
@@ -150,9 +151,10 @@ class Flight:
             self.controller.set_target(g[0], g[1])
 
     def _changed(self, old, new):
-        if old == M.DISARMED and new == M.PASSIVE:
-            # the operator armed (arming lands in PASSIVE; a failsafe that
-            # takes a disarmed vehicle to FAILSAFE is not an arming)
+        if self.modes.arms != self._arms:
+            # the operator armed (a failsafe that takes a disarmed vehicle to
+            # FAILSAFE is no arming, nor a mode restored after a reset)
+            self._arms = self.modes.arms
             self.nav.zero_at_surface()
             self.failsafes.on_arm()
         ctrl = self.controller

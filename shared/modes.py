@@ -21,6 +21,9 @@ request from there):
   deck still folds the wings); left only for PASSIVE or by disarming,
   so the operator takes over from a known configuration.
 - ``disarm()`` is allowed from every mode.
+- ``restore(mode)``: the firmware puts back the mode a reset under water
+  interrupted (``firmware/resume.py``), from DISARMED only, without the
+  checks: it is no arming by the operator (``arms`` counts those).
 
 Arming and mode checks come from the firmware through ``checks``, an
 object with ``arming_check() -> reason or None`` and, optionally,
@@ -121,6 +124,8 @@ class Modes:
         self._mode_check = getattr(checks, "mode_check", None) if checks is not None else None
         #: Counts mode changes, so the firmware can react to one per cycle.
         self.changes = 0
+        #: Counts the operator's armings (``arm()`` accepted).
+        self.arms = 0
         #: Reason of the last FAILSAFE entry (a constant), or OK.
         self.failsafe_cause = OK
         self.last_refusal = OK
@@ -169,7 +174,18 @@ class Modes:
             reason = self._arming_check()
             if reason is not None:
                 return self._refuse(reason)
+        self.arms += 1
         return self._set(PASSIVE)
+
+    def restore(self, mode):
+        """Back to ``mode`` after a reset (from DISARMED, no checks); False
+        when not DISARMED (someone chose a mode since) or ``mode`` is unknown."""
+        if self.mode != DISARMED or not 0 <= mode < len(NAMES):
+            return False
+        if mode == FAILSAFE:
+            self.failsafe_cause = CHECK_FAILED
+        self._set(mode)
+        return True
 
     def disarm(self):
         """Always allowed: servos go to the safe position."""

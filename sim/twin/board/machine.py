@@ -36,8 +36,12 @@ side of every peripheral belongs to the twin, through ``twin``:
   ``WDT_RESET``; ``machine.reset()`` reboots through the watchdog, so the
   next ``reset_cause()`` is ``WDT_RESET`` there and here.
 
-``mem32`` emulates only the watchdog's CTRL register (its ENABLE bit), the
-one register the firmware writes. Not emulated: SPI, SoftI2C, SoftSPI,
+``mem32`` emulates the watchdog's CTRL register (its ENABLE bit) and its
+eight SCRATCH registers (RP2350 datasheet 12.9.5: they keep their words
+through a watchdog reset, ``machine.reset()`` included, and read 0 after a
+power-on; the bootrom uses 4-7), the registers the firmware touches, with
+the atomic XOR/SET/CLR aliases; a read returns what the rp2 port's does,
+the word as a signed 32-bit int. Not emulated: SPI, SoftI2C, SoftSPI,
 Timer, RTC, Signal, I2S, mem8/16.
 
 The firmware polls its UART and feeds its watchdog every slot, so those
@@ -701,25 +705,51 @@ class WDT:
 # ---------------------------------------------------------------- mem32
 _WATCHDOG_CTRL = 0x400D8000   # RP2350 WATCHDOG CTRL; +0x1000 XOR, +0x2000 SET, +0x3000 CLR
 _WATCHDOG_ENABLE = 0x40000000
+_WATCHDOG_SCRATCH0 = 0x400D800C   # SCRATCH0..7 at 0x0c..0x28
+_SCRATCH_WORDS = const(8)
 
 
 class _Mem32:
-    """Word access to the RP2350's registers. Only the watchdog's CTRL
-    (its ENABLE bit, through the normal and the atomic aliases) is emulated;
-    any other address raises, as a hard fault would stop a board."""
+    """Word access to the RP2350's registers. The watchdog's CTRL (its
+    ENABLE bit) and SCRATCH0-7 are emulated, through the normal and the
+    atomic aliases; any other address raises, as a hard fault would stop a
+    board."""
 
     def _where(self, addr):
-        alias = addr - _WATCHDOG_CTRL
-        if alias in (0, 0x1000, 0x2000, 0x3000):
-            return alias
+        """(register: -1 for CTRL, else the scratch index; alias offset)."""
+        alias = (addr - _WATCHDOG_CTRL) & 0x3000
+        off = addr - _WATCHDOG_CTRL - alias
+        if 0 <= alias <= 0x3000 and addr >= _WATCHDOG_CTRL:
+            if off == 0:
+                return -1, alias
+            k = (off - 0x0C) >> 2
+            if off & 3 == 0 and 0 <= k < _SCRATCH_WORDS:
+                return k, alias
         raise ValueError("mem32[0x%08X]: register not emulated" % addr)
 
     def __getitem__(self, addr):
-        self._where(addr)
-        return _WATCHDOG_ENABLE if twin.wdt_timeout_ms else 0
+        reg, _ = self._where(addr)
+        if reg < 0:
+            return _WATCHDOG_ENABLE if twin.wdt_timeout_ms else 0
+        v = twin.scratch[reg]
+        # the rp2 port returns mp_obj_new_int() of the uint32: signed
+        return v - 0x100000000 if v & 0x80000000 else v
 
     def __setitem__(self, addr, value):
-        alias = self._where(addr)
+        reg, alias = self._where(addr)
+        value &= 0xFFFFFFFF
+        if reg >= 0:
+            s = twin.scratch
+            old = s[reg]
+            if alias == 0:
+                s[reg] = value
+            elif alias == 0x1000:
+                s[reg] = old ^ value
+            elif alias == 0x2000:
+                s[reg] = old | value
+            else:
+                s[reg] = old & ~value
+            return
         bit = bool(value & _WATCHDOG_ENABLE)
         on = bool(twin.wdt_timeout_ms)
         if alias == 0:
@@ -817,6 +847,8 @@ class _Twin:
         #: reads four a frame: a list lookup, not the arithmetic each time).
         self._pulse = [0] * _NUM_PINS
         self.unique_id = b"\xe6\x61\x41\x04\x03\x2b\x7a\x2e"
+        #: The watchdog's SCRATCH0-7 words (unsigned).
+        self.scratch = [0] * _SCRATCH_WORDS
         self.clear()
 
     def clear(self):
@@ -834,8 +866,9 @@ class _Twin:
         """Restart the board's peripherals; ``reset_cause()`` becomes ``cause``.
 
         The world outside (twin-driven pins, ADC inputs, attached devices)
-        stays; devices restart only on a power-on reset, since a watchdog
-        reset does not cut the sensors' supply.
+        stays; devices restart, and the watchdog's scratch registers clear,
+        only on a power-on reset, since a watchdog reset does not cut the
+        sensors' supply nor the chip's.
         """
         for i in range(_NUM_PINS):
             self._mode[i] = _UNSET
@@ -858,6 +891,9 @@ class _Twin:
         self.reset_cause = cause
         self.sys_freq = _SYS_FREQ
         if cause == PWRON_RESET:
+            # the scratch registers live through a watchdog reset only
+            for i in range(_SCRATCH_WORDS):
+                self.scratch[i] = 0
             for bus in self._i2c:
                 for dev in bus.values():
                     if hasattr(dev, "power_on"):
