@@ -55,6 +55,11 @@ def test_text_output_names_the_failsafes_and_their_reports(sim):
     (("--fault", "depth-nack"), 2, "expected NAME@SECONDS"),
     (("--fault", "sonar-nack@3"), 2, "unknown fault 'sonar-nack'"),
     (("--fault", "radio-corrupt:2@3"), 2, "within 0..1"),
+    # faults that cannot happen: a flash step beyond a save's, a time after the run's end
+    (("--fault", "powercut:7@12"), 2, "a parameter save has 6 flash steps"),
+    (("--fault", "powercut:16@12"), 2, "use 1..6"),
+    (("--duration", "10", "--fault", "watchdog@12"), 1, "at 12 s, but the run ends at 10 s"),
+    (("--fault", "leak@120"), 1, "at 120 s, but the run ends at 120 s"),
     (("--speedup", "0"), 2, "--speedup '0'"),
     (("--param", "FS_GCS_TIMEOUT"), 2, "expected NAME=VALUE"),
     (("--param", "NO_SUCH_PARAM=1"), 1, "no such parameter"),

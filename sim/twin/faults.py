@@ -19,7 +19,8 @@ name                        what happens
 ``leak``                    water at the leak probe
 ``powercut[:N]``            the operator changes a parameter (FS_GCS_TIMEOUT + 1 s)
                             and the power goes at the N-th flash step of the save
-                            that follows (default 3); the board comes back on
+                            that follows (default 3; a save has ``save_steps()``,
+                            6: a larger N is refused); the board comes back on
 ``watchdog``                the loop hangs; the watchdog resets the board
 ``overload[:US]``           every clock reading costs US microseconds (default 400):
                             the loop overruns, and when it overruns for long enough
@@ -28,12 +29,17 @@ name                        what happens
 
 ``parse(text)`` checks a fault and returns a ``Fault``; a bad one is a
 ``ValueError`` that names what is wrong and what is allowed.
+``check_times(faults, duration_s)`` refuses a fault timed at or after the
+run's end, which would never happen.
 """
 
 from __future__ import annotations
 
+import functools
 import math
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Optional
 
 SENSORS = ("depth", "imu", "mag")
@@ -86,6 +92,38 @@ def parse(text: str) -> Fault:
             raise ValueError("fault %r: the pack voltage must be within 0..20 V" % text)
         if name in ("powercut", "overload") and (arg < 1 or arg != int(arg)):
             raise ValueError("fault %r: %s needs a whole number >= 1" % (text, name))
+        if name == "powercut" and arg > save_steps():
+            raise ValueError("fault %r: a parameter save has %d flash steps, so the power cannot go at "
+                             "step %d; use 1..%d" % (text, save_steps(), int(arg), save_steps()))
     elif name in DEFAULTS:
         arg = float(DEFAULTS[name])
     return Fault(name, at, arg)
+
+
+@functools.lru_cache(maxsize=1)
+def save_steps() -> int:
+    """The flash steps of a parameter save (``powercut``'s N counts them), as
+    the firmware's own ``ParamStore`` takes them: counted by running it on
+    ``board/powercut.py``'s ``PowerCutFiles`` (``cut_at=0`` counts and never
+    cuts), with the backup a save replaces already there."""
+    from roboray.firmware import app
+    from roboray.firmware.param_store import Files, ParamStore
+    from roboray.shared.params import ParamTable
+    from roboray.sim.twin.board.powercut import PowerCutFiles
+
+    with tempfile.TemporaryDirectory(prefix="roboray-steps-") as d:
+        files = PowerCutFiles(Files(), 0)
+        store = ParamStore(ParamTable(app.PARAMS), str(Path(d) / "params.bin"), files)
+        store.save()
+        store.save()        # from here on a backup exists: a save's every step
+        before = files.steps
+        store.save()
+        return files.steps - before
+
+
+def check_times(faults: list, duration_s: float) -> None:
+    """ValueError for a fault timed at or after the run's end."""
+    for f in faults:
+        if f.at_s >= duration_s:
+            raise ValueError("fault %s: at %g s, but the run ends at %g s (the scenario's duration or "
+                             "--duration)" % (f, f.at_s, duration_s))

@@ -417,6 +417,7 @@ class Twin:
         if options.speedup is not None and not options.speedup > 0:
             raise ValueError("--speedup %r must be > 0" % options.speedup)
         self.scenario = scenarios.make(options.scenario, options.depth, options.target, options.duration)
+        faults_mod.check_times(options.faults, self.scenario.duration_s)
         # the firmware's parameter table, as the board will load it; the
         # user's settings are checked before anything heavy is built
         table = ParamTable(app.PARAMS)
