@@ -21,9 +21,33 @@ so a false start byte in garbage cannot swallow the valid frames behind it.
 Unknown message ids count in ``unknown`` (they cannot be checked without
 their CRC_EXTRA, so they are resynchronised over, not trusted).
 
+Signatures: the checksum covers header and payload, not a signed frame's 13
+signature bytes. A frame whose signature was cut short takes the next
+frame's start byte and header as signature bytes, and its checksum still
+passes. Its ``sig_status`` says what the parser made of a signed frame:
+
+- ``SIG_OK``: verified with the key (``sig_ok`` True);
+- ``SIG_BAD``: refused by the key's check (``Signing.verify``: wrong,
+  replayed, out of its time window);
+- ``SIG_UNCHECKED``: no key, and no frame starts inside its signature;
+- ``SIG_CUT``: no key, and a frame starts inside its signature bytes (its
+  start byte, its header checks and its checksum passes): the signature was
+  cut short, and the frame that begins there is the next delivered. Bytes
+  still to come may decide this (a start byte near the signature's end):
+  the signed frame waits for them, a few bytes usually, up to that frame.
+
+After a ``SIG_BAD`` or ``SIG_CUT`` frame the search resumes at the byte
+after its checksum, so a frame that begins inside its signature bytes is
+found, with a key and without. Only what the checksum vouched for is
+skipped: a frame is lost only when a damaged frame whose checksum passed
+by chance covers its start. A signature changed in place (a bit flipped in
+its 13 bytes) cannot be told from a good one without the key:
+``SIG_UNCHECKED`` never claims more.
+
 Counters: ``frames`` (valid), ``crc_errors``, ``unknown``, ``bad_header``,
 ``lost`` (gaps in sequence numbers per sender), ``garbage`` (bytes outside
-any candidate), ``bad_signature`` (signed frames that failed verification).
+any candidate), ``bad_signature`` (signed frames that failed verification),
+``cut_signature`` (signed frames, no key, with a frame inside their signature).
 
 Feeding a ``memoryview`` costs one small view object per copy on the board
 (16 bytes); ``bytes`` cost a copy of the slice.
@@ -48,13 +72,21 @@ _STX_V1 = const(0xFE)
 _HEADER_V2 = const(10)
 _HEADER_V1 = const(6)
 _SIGNATURE_LEN = const(13)
-_FRAME_MAX = const(280)
+# a frame (280 bytes at most) and one that starts in its signature's last byte
+_BUF_LEN = const(560)
 _SOURCES = const(8)
 # a message id's three bytes in messages.WIRE
 _W_CRC_EXTRA = const(0)
 _W_MIN_LEN = const(1)
 _W_MAX_LEN = const(2)
 _W_IDS = const(257)      # messages.WIRE_IDS: ids 0-255 and SETUP_SIGNING (256)
+
+#: ``Parser.sig_status`` of the last frame
+SIG_NONE = const(0)       # not signed
+SIG_OK = const(1)         # verified with the key
+SIG_UNCHECKED = const(2)  # signed, no key to check it, nothing wrong seen
+SIG_BAD = const(3)        # the key says no
+SIG_CUT = const(4)        # no key; a frame starts inside its signature bytes
 
 
 class Parser:
@@ -69,7 +101,7 @@ class Parser:
     """
 
     def __init__(self, signing=None):
-        self.buf = bytearray(_FRAME_MAX)
+        self.buf = bytearray(_BUF_LEN)
         self._mv = memoryview(self.buf)
         self.payload = bytearray(256)
         self._dirty = 0    # payload bytes from here on are all zero
@@ -77,7 +109,8 @@ class Parser:
         self._n = 0        # bytes held in buf, from a start byte
         self._need = 1     # bytes needed before the next decision
         self._flen = 0     # length of the candidate frame, 0 until its header is read
-        self._drop = 0     # length of the delivered frame, removed on the next call
+        self._drop = 0     # bytes of the delivered frame removed on the next call
+        self._probe = 0    # a possible frame's start in a signature being looked into, 0: none
         self.ready = False
         # the last valid frame
         self.msgid = -1
@@ -89,6 +122,7 @@ class Parser:
         self.mavlink1 = False
         self.signed = False
         self.sig_ok = False
+        self.sig_status = SIG_NONE
         # counters
         self.frames = 0
         self.crc_errors = 0
@@ -97,6 +131,7 @@ class Parser:
         self.lost = 0
         self.garbage = 0
         self.bad_signature = 0
+        self.cut_signature = 0
         self._src = array("l", [-1] * _SOURCES)   # sysid << 8 | compid
         self._last = array("B", bytearray(_SOURCES))
         self._next_src = 0
@@ -108,6 +143,7 @@ class Parser:
         self._need = 1
         self._flen = 0
         self._drop = 0
+        self._probe = 0
         self.ready = False
 
     # ------------------------------------------------------------- feeding
@@ -149,7 +185,14 @@ class Parser:
                                 buf[e] = lo
                                 if lo == (c & 0xFF) and buf[e + 1] == (c >> 8):
                                     self._flen = k
-                                    self._deliver(True, _HEADER_V2, msgid, plen)
+                                    cut = 0
+                                    if flags:   # signed: without a key, look inside the signature
+                                        s = self.signing
+                                        if s is None or s.key is None:
+                                            cut = self._look_inside(e + 2)
+                                            if cut < 0:
+                                                continue   # bytes to come decide
+                                    self._deliver(True, _HEADER_V2, msgid, plen, cut)
                                     return i
                             self._need = _HEADER_V2
                             if self._run():
@@ -230,6 +273,14 @@ class Parser:
         """Decide on the held bytes while there are enough; True on a frame."""
         buf = self.buf
         while self._n and self._n >= self._need:
+            if self._probe:
+                # a signed frame, checksum good, no key: whether a frame
+                # starts inside its signature, with the bytes now here
+                cut = self._look_inside(self._flen - _SIGNATURE_LEN)
+                if cut < 0:
+                    continue
+                self._deliver(True, _HEADER_V2, buf[7] | (buf[8] << 8) | (buf[9] << 16), buf[1], cut)
+                return True
             if self._flen == 0:
                 if buf[0] == _STX_V2:
                     hdr = _HEADER_V2
@@ -273,9 +324,83 @@ class Parser:
                 self.crc_errors += 1
                 self._reject()
                 continue
-            self._deliver(v2, hdr, msgid, plen)
+            cut = 0
+            if v2 and buf[2] & 1:   # signed: without a key, look inside the signature
+                s = self.signing
+                if s is None or s.key is None:
+                    cut = self._look_inside(end + 2)
+                    if cut < 0:
+                        continue   # bytes to come decide
+            self._deliver(v2, hdr, msgid, plen, cut)
             return True
         return False
+
+    def _look_inside(self, c):
+        """Whether a frame starts in the signature ``buf[c:c + 13]`` of the
+        held signed frame: 1 yes, 0 no, -1 not known until ``_need`` bytes
+        are held (``_probe``: the start byte waiting for them)."""
+        buf = self.buf
+        a = self._probe or c
+        e = c + _SIGNATURE_LEN
+        while True:
+            j = buf.find(b"\xfd", a, e)
+            k = buf.find(b"\xfe", a, e)
+            if j < 0 or 0 <= k < j:
+                j = k
+            if j < 0:
+                self._probe = 0
+                return 0
+            r = self._frame_at(j)
+            if r > 0:
+                self._probe = 0
+                return 1
+            if r == 0:
+                self._probe = j
+                return -1
+            a = j + 1
+
+    def _frame_at(self, s):
+        """Whether a frame starts at ``buf[s]``, judged on the held bytes:
+        1 yes (header and checksum check out), -1 no, 0 not known until
+        ``_need`` bytes are held. Each header byte is checked as soon as it
+        is here, so most false starts are refused without waiting."""
+        buf = self.buf
+        n = self._n
+        if buf[s] == _STX_V2:
+            hdr = _HEADER_V2
+            if n > s + 2 and buf[s + 2] & 0xFE:
+                return -1
+            if n > s + 9 and buf[s + 9]:
+                return -1
+            if n > s + 8:
+                m = buf[s + 7] | (buf[s + 8] << 8)
+                if m >= _W_IDS or not WIRE[3 * m + _W_MAX_LEN]:
+                    return -1
+        else:
+            hdr = _HEADER_V1
+            if n > s + 5 and not WIRE[3 * buf[s + 5] + _W_MAX_LEN]:
+                return -1
+        if n < s + hdr:
+            self._need = s + hdr
+            return 0
+        if hdr == _HEADER_V2:
+            w = 3 * (buf[s + 7] | (buf[s + 8] << 8))
+        else:
+            w = 3 * buf[s + 5]
+        plen = buf[s + 1]
+        if plen > WIRE[w + _W_MAX_LEN] or (hdr == _HEADER_V1 and plen < WIRE[w + _W_MIN_LEN]):
+            return -1
+        end = s + hdr + plen
+        if n < end + 2:
+            self._need = end + 2
+            return 0
+        lo = buf[end]
+        buf[end] = WIRE[w + _W_CRC_EXTRA]
+        c = _crc(_CRC_INIT, buf, s + 1, end + 1)
+        buf[end] = lo
+        if lo == (c & 0xFF) and buf[end + 1] == (c >> 8):
+            return 1
+        return -1
 
     @property
     def entry(self):
@@ -284,7 +409,7 @@ class Parser:
         from roboray.shared.mavlink.table import TABLE
         return TABLE.get(self.msgid)
 
-    def _deliver(self, v2, hdr, msgid, plen):
+    def _deliver(self, v2, hdr, msgid, plen, cut):
         buf = self.buf
         flen = self._flen
         self.msgid = msgid
@@ -312,13 +437,27 @@ class Parser:
         for i in range(plen, self._dirty):
             p[i] = 0
         self._dirty = plen
-        self.sig_ok = False
+        st = SIG_NONE
+        drop = flen
         if signed:
             s = self.signing
             if s is not None and s.key is not None:
-                self.sig_ok = s.verify(buf, flen, sysid, compid)
-                if not self.sig_ok:
+                if s.verify(buf, flen, sysid, compid):
+                    st = SIG_OK
+                else:
+                    st = SIG_BAD
                     self.bad_signature += 1
+                    drop = flen - _SIGNATURE_LEN
+            elif cut:
+                st = SIG_CUT
+                self.cut_signature += 1
+                drop = flen - _SIGNATURE_LEN
+            else:
+                st = SIG_UNCHECKED
+        # (after a signature found wrong the search resumes at the byte after
+        # the checksum: a frame may begin inside the signature bytes)
+        self.sig_status = st
+        self.sig_ok = st == SIG_OK
         # sequence gaps: most frames come from the sender of the one before
         i = self._last_src
         last = self._last
@@ -329,7 +468,7 @@ class Parser:
             self._count_sequence()
         self.frames += 1
         self.ready = True
-        self._drop = flen
+        self._drop = drop
 
     def _count_sequence(self):
         key = (self.sysid << 8) | self.compid
