@@ -220,6 +220,9 @@ class CPythonBoard:
 
     name = "cpython"
 
+    #: The child's working directory (None: ours).
+    cwd: Optional[Path] = None
+
     def __init__(self, on_request: Callable[[str], str]) -> None:
         self.on_request = on_request
         self.dir = Path(tempfile.mkdtemp(prefix="roboray-twin-"))
@@ -257,7 +260,7 @@ class CPythonBoard:
         cmd, env = self._command(to_child_r, from_child_w, config)
         with open(out_path, "wb") as out:
             proc = subprocess.Popen(cmd, env=env, pass_fds=(to_child_r, from_child_w), stdout=out,
-                                    stderr=subprocess.PIPE)
+                                    stderr=subprocess.PIPE, cwd=self.cwd)
         os.close(to_child_r)
         os.close(from_child_w)
         writer = os.fdopen(to_child_w, "wb")
@@ -366,6 +369,16 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
             self.romfs.write_bytes(rp2350_emu.make_romfs(src))
         else:
             self.lib = install_board_lib(self.dir / "lib")
+        # QEMU runs in the twin's folder and the board sees only paths
+        # relative to it: a run's temporary folder has a new random name,
+        # and MicroPython hashes and compares the paths it is given (its
+        # qstrs' one-byte hashes collide by name), so absolute paths made
+        # the counted instructions, and with them the tlog, differ from run
+        # to run.
+        self.cwd = self.dir
+
+    def param_path(self) -> str:
+        return PARAM_PATH.lstrip("/")   # relative to QEMU's working directory, self.dir
 
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
         from roboray.sim import twin
@@ -380,8 +393,9 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
                 "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
         main = self.dir / "boot_twin.py"
         main.write_text(code)
-        return rp2350_emu.command(str(main), heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
-                                  path=() if self.romfs else (str(self.lib),), romfs=self.romfs), None
+        return rp2350_emu.command(main.name, heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
+                                  path=() if self.romfs else (self.lib.relative_to(self.dir).as_posix(),),
+                                  romfs=self.romfs), None
 
 
 # ---------------------------------------------------------------- the twin

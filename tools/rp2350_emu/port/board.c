@@ -120,6 +120,12 @@ static mp_obj_t emuboard_config(size_t n_args, const mp_obj_t *args) {
     }
     uint64_t c = board_charged_insns();
     base_ps += (c - charged_at_cfg) * ps_per_insn;
+    // On to the next whole microsecond: from here the clock's readings
+    // (whole us) depend only on the instructions charged from here, not on
+    // the fraction of a microsecond left by whatever ran before (a start-up
+    // whose count varies would otherwise shift every later reading by 1 us
+    // now and then).
+    base_ps = (base_ps + PS_PER_US - 1) / PS_PER_US * PS_PER_US;
     charged_at_cfg = c;
     ps_per_insn = (uint64_t)ps;
     return mp_const_none;
