@@ -10,7 +10,7 @@ from pymavlink.dialects.v20 import common as pm
 
 from roboray.shared.mavlink import crc
 from roboray.shared.mavlink import messages as M
-from roboray.shared.mavlink.parser import Parser
+from roboray.shared.mavlink.parser import SIG_BAD, SIG_CUT, SIG_NONE, SIG_OK, SIG_UNCHECKED, Parser
 from roboray.shared.mavlink.signing import Signing, key_from_passphrase
 from roboray.tools import mavgen
 
@@ -232,3 +232,104 @@ def test_the_boards_native_framing_and_checksum_give_the_same_bytes(tmp_path):
     exec(_BUILD_FRAMES, ns)
     want = ns["build_frames"](frame, M, Signing, struct)
     assert [bytes.fromhex(x[2:]) for x in out.splitlines() if x.startswith("F ")] == want
+
+
+# -------------------------------------------------- damaged signatures (issue 16)
+def _signed_pm(msgid: int, seq: int, rng: random.Random, ts: int) -> bytes:
+    return pymavlink_encode(msgid, random_fields(msgid, rng), seq, 1, 1, key=KEY, link_id=4, timestamp=ts)
+
+
+def _parse_all(data: bytes, key: bytes | None) -> list[tuple[bytes, int]]:
+    s = None
+    if key is not None:
+        s = Signing(key)
+        s.hi, s.lo = TIMESTAMP >> 24, TIMESTAMP & 0xFFFFFF   # our clock where the sender's is
+    p = Parser(s)
+    got = []
+    i = 0
+    while i < len(data):
+        i = p.feed(data, i, len(data))
+        if p.ready:
+            got.append((bytes(p.frame()), p.sig_status))
+    while p.flush():
+        got.append((bytes(p.frame()), p.sig_status))
+    return got
+
+
+@pytest.mark.parametrize("keep", range(13))
+def test_a_signature_cut_short_keeps_the_next_frame(keep):
+    """pymavlink's signed frame loses signature bytes; the frame after it
+    (pymavlink's too) comes out, with the key and without, and the damaged
+    one is flagged, never passed on as good."""
+    rng = random.Random(keep)
+    signed = _signed_pm(M.MSG_ATTITUDE, 1, rng, TIMESTAMP + 1)
+    nxt = pymavlink_encode(M.MSG_HEARTBEAT, random_fields(0, rng), 2, 1, 1)
+    last = _signed_pm(M.MSG_LOCAL_POSITION_NED, 3, rng, TIMESTAMP + 3)
+    cut = signed[:len(signed) - 13 + keep]
+    data = cut + nxt + last
+    damaged = data[:len(signed)]   # what the parser takes as the signed frame
+    with pytest.raises(Exception, match="[Ss]ignature"):
+        pymavlink_decode(damaged, KEY)   # the reference refuses it too
+    assert _parse_all(data, KEY) == [(damaged, SIG_BAD), (nxt, SIG_NONE), (last, SIG_OK)]
+    assert _parse_all(data, None) == [(damaged, SIG_CUT), (nxt, SIG_NONE), (last, SIG_UNCHECKED)]
+
+
+def test_a_signature_changed_in_place_is_refused_with_the_key_only():
+    rng = random.Random(2)
+    signed = bytearray(_signed_pm(M.MSG_ATTITUDE, 1, rng, TIMESTAMP + 1))
+    nxt = pymavlink_encode(M.MSG_HEARTBEAT, random_fields(0, rng), 2, 1, 1)
+    for at in range(len(signed) - 13, len(signed)):
+        bad = bytearray(signed)
+        bad[at] ^= 0x10
+        if bad[at] in (0xFD, 0xFE):
+            continue
+        data = bytes(bad) + nxt
+        assert _parse_all(data, KEY) == [(bytes(bad), SIG_BAD), (nxt, SIG_NONE)]
+        # no key: nothing says it is damaged; it is unchecked, not good
+        assert _parse_all(data, None) == [(bytes(bad), SIG_UNCHECKED), (nxt, SIG_NONE)]
+
+
+def _signed_ending_in_a_start_byte() -> bytes:
+    """A good signed frame whose signature's last byte is a start byte (its
+    hash: found by trying timestamps)."""
+    rng = random.Random(4)
+    values = random_fields(M.MSG_ATTITUDE, rng)
+    for ts in range(TIMESTAMP, TIMESTAMP + 5000):
+        f = pymavlink_encode(M.MSG_ATTITUDE, values, 1, 1, 1, key=KEY, link_id=4, timestamp=ts)
+        if f[-1] == 0xFD:
+            return f
+    raise AssertionError("no signature ends in 0xFD")
+
+
+def test_without_the_key_a_start_byte_at_the_signatures_end_waits_for_what_follows():
+    f = _signed_ending_in_a_start_byte()
+    nxt = our_encode(M.MSG_HEARTBEAT, random_fields(0, random.Random(1)), 2, 1, 1)
+    # with the key: verified and delivered at once
+    s = Signing(KEY)
+    s.hi, s.lo = TIMESTAMP >> 24, TIMESTAMP & 0xFFFFFF
+    p = Parser(s)
+    assert p.feed(f) == len(f) and p.ready and p.sig_status == SIG_OK
+    # without: the header of a frame may begin there; its bytes decide
+    p = Parser()
+    assert p.feed(f) == len(f) and not p.ready
+    i = p.feed(nxt, 0, 2)
+    assert i == 2 and not p.ready   # no flags byte yet
+    i = p.feed(nxt, i, len(nxt))
+    assert p.ready and p.sig_status == SIG_UNCHECKED and bytes(p.frame()) == f
+    i = p.feed(nxt, i, len(nxt))
+    assert p.ready and bytes(p.frame()) == nxt and p.sig_status == SIG_NONE
+    # at the end of the input, flush() decides on what is there
+    p = Parser()
+    p.feed(f)
+    assert not p.ready and p.flush() and p.sig_status == SIG_UNCHECKED and bytes(p.frame()) == f
+    assert not p.flush()
+
+
+def test_the_tlog_decoder_reads_such_a_frame_without_the_key():
+    from roboray.ground.tlog import Decoder
+
+    f = _signed_ending_in_a_start_byte()
+    out = Decoder().decode(f)
+    assert out["mavpackettype"] == "ATTITUDE" and out["crc_ok"] is True
+    out = Decoder(KEY).decode(f)
+    assert out["crc_ok"] is True and out["signature_ok"] is True

@@ -15,7 +15,10 @@ signature verdicts and counters.
 from __future__ import annotations
 
 import hashlib
+import json
 import random
+import subprocess
+import sys
 
 import pytest
 
@@ -195,3 +198,17 @@ def test_fuzzed_share_on_micropython(micropython):
                            p.bad_signature, p.cut_signature]
         r = F.account(fz, out)
         assert r["good_lost"] == 0 and r["good_delivered"] == len(fz.good)
+
+
+def test_bench_mavlink_reports_the_frames_lost():
+    proc = subprocess.run([sys.executable, "-m", "roboray.sim.cli", "bench", "mavlink", "--frames", "500",
+                           "--repeat", "1", "--no-micropython", "--fuzz", "2000", "--json"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    for key in ("encode_us", "parse_us_per_byte", "pymavlink_parse_us_per_byte", "parse_speed_ratio"):
+        assert out[key] > 0, key
+    assert out["fuzz_inputs"] == 2000 and out["fuzz_good_frames"] == 2500
+    assert out["fuzz_good_frames_lost"] == out["fuzz_good_frames_lost_without_key"] == 0
+    assert out["fuzz_damaged_passed"] == 0
+    assert out["fuzz_damaged_flagged_without_key"] > 0

@@ -34,7 +34,8 @@ passes. Its ``sig_status`` says what the parser made of a signed frame:
   start byte, its header checks and its checksum passes): the signature was
   cut short, and the frame that begins there is the next delivered. Bytes
   still to come may decide this (a start byte near the signature's end):
-  the signed frame waits for them, a few bytes usually, up to that frame.
+  the signed frame waits for them, a few bytes usually, up to that frame;
+  at the end of the input ``flush()`` decides on what is there.
 
 After a ``SIG_BAD`` or ``SIG_CUT`` frame the search resumes at the byte
 after its checksum, so a frame that begins inside its signature bytes is
@@ -191,7 +192,7 @@ class Parser:
                                     if flags:   # signed: without a key, look inside the signature
                                         s = self.signing
                                         if s is None or s.key is None:
-                                            cut = self._look_inside(e + 2)
+                                            cut = self._look_inside(e + 2, False)
                                             if cut < 0:
                                                 continue   # bytes to come decide
                                     self._deliver(True, _HEADER_V2, msgid, plen, cut)
@@ -220,6 +221,23 @@ class Parser:
             if self._n >= self._need and self._run():
                 return i
         return i
+
+    def flush(self):
+        """No more bytes are coming (the end of a file, of a record): a signed
+        frame held while bytes still to come decide whether a frame starts
+        inside its signature is decided on what is here and delivered. True
+        when a frame is ready (then call ``feed`` or ``flush`` again)."""
+        if self._drop:
+            self._remove(self._drop)
+        self.ready = False
+        if self._n and self._n >= self._need and self._run():
+            return True
+        if not self._probe:
+            return False
+        cut = self._look_inside(self._flen - _SIGNATURE_LEN, True)
+        buf = self.buf
+        self._deliver(True, _HEADER_V2, buf[7] | (buf[8] << 8) | (buf[9] << 16), buf[1], cut)
+        return True
 
     def parse_byte(self, b):
         """Feed one byte; True when a frame is ready."""
@@ -278,7 +296,7 @@ class Parser:
             if self._probe:
                 # a signed frame, checksum good, no key: whether a frame
                 # starts inside its signature, with the bytes now here
-                cut = self._look_inside(self._flen - _SIGNATURE_LEN)
+                cut = self._look_inside(self._flen - _SIGNATURE_LEN, False)
                 if cut < 0:
                     continue
                 self._deliver(True, _HEADER_V2, buf[7] | (buf[8] << 8) | (buf[9] << 16), buf[1], cut)
@@ -330,17 +348,18 @@ class Parser:
             if v2 and buf[2] & 1:   # signed: without a key, look inside the signature
                 s = self.signing
                 if s is None or s.key is None:
-                    cut = self._look_inside(end + 2)
+                    cut = self._look_inside(end + 2, False)
                     if cut < 0:
                         continue   # bytes to come decide
             self._deliver(v2, hdr, msgid, plen, cut)
             return True
         return False
 
-    def _look_inside(self, c):
+    def _look_inside(self, c, final):
         """Whether a frame starts in the signature ``buf[c:c + 13]`` of the
         held signed frame: 1 yes, 0 no, -1 not known until ``_need`` bytes
-        are held (``_probe``: the start byte waiting for them)."""
+        are held (``_probe``: the start byte waiting for them); ``final``:
+        no more bytes are coming, what they would decide is a no."""
         buf = self.buf
         a = self._probe or c
         e = c + _SIGNATURE_LEN
@@ -356,7 +375,7 @@ class Parser:
             if r > 0:
                 self._probe = 0
                 return 1
-            if r == 0:
+            if r == 0 and not final:
                 self._probe = j
                 return -1
             a = j + 1

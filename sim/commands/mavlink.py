@@ -11,7 +11,15 @@
   encode one frame on the real MicroPython interpreter (the larger of the
   two is the figure held to 512), plus ``micropython_us_per_byte`` and the
   RP2350 estimate (a factor of about 20 on float-heavy code: the quoted 7.2 us
-  ``c = a * b`` loop against ~0.34 us on the WebAssembly port).
+  ``c = a * b`` loop against ~0.34 us on the WebAssembly port);
+- ``fuzz_good_frames_lost``: good frames our parser (with the key) lost in
+  ``--fuzz`` fuzzed inputs (``roboray.sim.mavlink_fuzz``: random bytes,
+  flipped bits, frames cut short, signatures damaged), of
+  ``fuzz_good_frames``; ``fuzz_good_frames_lost_overlapped`` those a damaged
+  frame's checked bytes covered (no parser trusting checksums finds them);
+  ``..._without_key`` the same without the key, and
+  ``fuzz_damaged_passed_without_key`` the damaged frames passed on unflagged
+  there (signatures changed in place: only the key can tell).
 """
 
 from __future__ import annotations
@@ -122,6 +130,26 @@ def __all():
 """
 
 
+def _fuzz(n_inputs: int) -> dict:
+    from roboray.shared.mavlink.parser import Parser
+    from roboray.sim import mavlink_fuzz as F
+
+    fz = F.build(n_inputs)
+    bounds = F.chunks(len(fz.data))
+    keyed = F.account(fz, F.run(Parser(F.receiver()), fz.data, bounds))
+    plain = F.account(fz, F.run(Parser(), fz.data, bounds))
+    return {
+        "fuzz_inputs": n_inputs,
+        "fuzz_good_frames": keyed["good_frames"],
+        "fuzz_good_frames_lost": keyed["good_lost"],
+        "fuzz_good_frames_lost_overlapped": keyed["good_lost_overlapped"],
+        "fuzz_damaged_passed": keyed["damaged_passed"],
+        "fuzz_good_frames_lost_without_key": plain["good_lost"],
+        "fuzz_damaged_flagged_without_key": plain["damaged_flagged"],
+        "fuzz_damaged_passed_without_key": plain["damaged_passed"],
+    }
+
+
 def do_bench_mavlink(args: argparse.Namespace) -> None:
     from roboray.shared.mavlink import messages as M
     from roboray.shared.mavlink.frame import Writer
@@ -150,6 +178,8 @@ def do_bench_mavlink(args: argparse.Namespace) -> None:
         "pymavlink_parse_us_per_byte": t_pym / len(data) * 1e6,
         "parse_speed_ratio": t_pym / t_ours,
     }
+    if args.fuzz:
+        result.update(_fuzz(args.fuzz))
     if not args.no_micropython:
         from roboray.tools.micropython import MicroPython
 
@@ -181,4 +211,5 @@ def register(sub, bench) -> None:
     p.add_argument("--chunk", type=int, default=64, help="bytes handed to the parsers at a time (default 64)")
     p.add_argument("--repeat", type=int, default=3, help="timing runs, best kept (default 3)")
     p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython figures")
+    p.add_argument("--fuzz", type=int, default=100000, help="fuzzed inputs for the frames-lost count (default 100000, 0: none)")
     add_json(p)
