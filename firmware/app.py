@@ -14,8 +14,10 @@
    the vehicle does not run without its sensors;
 4. builds the flight layer: ``Navigation`` (the estimator and its inputs),
    ``Failsafes`` (arming checks and failsafes), ``Modes``, the MAVLink
-   ``Link`` on the radio and ``Flight`` (modes to wing commands, with the
-   controller of ``shared/control`` when the firmware has one);
+   ``Link`` on the radio, ``Flight`` (modes to wing commands, with the
+   controller of ``shared/control`` when the firmware has one) and
+   ``Resume`` (the dive's state in the watchdog's scratch words and on
+   flash, ``STATE_FILE`` beside the parameters: a dive survives a reset);
 5. starts the watchdog and runs the scheduler with eight tasks:
 
    ========  ======  ======================================================
@@ -25,7 +27,9 @@
    link      10 ms   radio bytes, MAVLink in and out, telemetry
    depth     20 ms   MS5837 conversion collected and the next started;
                      a fresh pressure to the estimator (phase 1)
-   control   20 ms   failsafes (10 Hz), mode, controller (50 Hz), servos
+   control   20 ms   failsafes (10 Hz), mode, controller (50 Hz), servos;
+                     the dive's state kept on events, restored after a
+                     reset under water (``firmware/resume.py``)
    leak      50 ms   leak probe, debounced
    battery   100 ms  pack voltage, filtered
    params    1 s     saves the parameters when they changed

@@ -133,11 +133,13 @@ def test_a_hung_loop_is_reset_by_the_watchdog_and_reported_after_the_reset():
     assert r["resets"] == 1
     boot = [line for line in r["console"] if line.startswith("reset cause")]
     assert boot == ["reset cause: PWRON_RESET", "reset cause: WDT_RESET"]
-    # the estimator starts aligning again after the reset, so FAILSAFE mode
-    # (armed) finds it invalid too, and says so
     assert names(r)[0] == "watchdog reset"
     assert 14.9 <= first(r, "watchdog reset") <= 15.3   # 1 s watchdog, 2 s start-up grace
-    assert modes_since(r, 12.0) == ["DISARMED", "FAILSAFE"]
+    # under water the board resumes its dive (firmware/resume.py) once its
+    # estimator has realigned, about as FS_LOCKUP_ACT acts: FAILSAFE mode
+    # wins, whichever comes first
+    after = modes_since(r, 12.0)
+    assert after[0] == "DISARMED" and after[-1] == "FAILSAFE" and set(after) <= {"DISARMED", "PASSIVE", "FAILSAFE"}
     assert "Failsafe: watchdog reset, FAILSAFE mode" in texts(r)
     assert reported(r, F.LOCKUP)
 

@@ -171,6 +171,21 @@ def test_the_watchdog_register_stops_it(mp):
     raises(mp, "machine.mem32[0x40000000]", "not emulated")
 
 
+def test_the_watchdog_scratch_words_survive_a_watchdog_reset_not_a_power_cut(mp):
+    # RP2350 datasheet 12.9.5: SCRATCH0-7 keep their words through a
+    # watchdog reset and clear on a power-on; reads are signed, as rp2's
+    mp.exec("from roboray.firmware.boards import pico2\ns = pico2.scratch(machine)\n"
+            "s.write(bytes(range(0xF0, 0x100)))\n"
+            "machine.mem32[0x400D800C + 0x2000] = 1\n"           # atomic SET alias
+            "try:\n    machine.reset()\nexcept machine.BoardReset:\n    pass\n"
+            "after_wdt = bytes(s.read_into(bytearray(16)))\nraw = machine.mem32[0x400D800C]\n"
+            "t.power_cycle(machine.PWRON_RESET)\nafter_power = bytes(s.read_into(bytearray(16)))\n")
+    assert mp.eval("after_wdt") == bytes([0xF1]) + bytes(range(0xF1, 0x100))
+    assert mp.eval("raw") == 0xF3F2F1F1 - (1 << 32)
+    assert mp.eval("after_power") == bytes(16)
+    raises(mp, "machine.mem32[0x400D802C]", "not emulated")     # past SCRATCH7
+
+
 def test_identity_and_clock(mp):
     assert len(mp.eval("machine.unique_id()")) == 8
     assert mp.eval("machine.freq()") == 150000000

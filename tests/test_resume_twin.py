@@ -1,0 +1,83 @@
+"""A dive survives a reset (issue 16), in the twin.
+
+target-landing: released at about 9.7 s from just under the surface, on the
+bottom (10 m) at about 34 s. A watchdog reset (the loop hangs, the watchdog
+resets the board a second later) or a power cut (at a flash step of the
+parameter save the operator's change starts) anywhere in the descent: the
+board comes back, finds the dive's state (the watchdog's scratch words, or
+flash), sees from the pressure that it is under water, resumes TARGET once
+its estimator has realigned, and still lands within 0.5 m; the ground reads
+why in a STATUSTEXT. Most runs are on CPython (``firmware/resume.py``'s
+logic is the point); one runs on the default MicroPython interpreter.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from roboray.sim.twin import faults
+from roboray.sim.twin.runner import Options, run
+
+
+def fly(*specs, scenario="target-landing", interpreter="cpython", **kw):
+    return run(Options(scenario=scenario, interpreter=interpreter, faults=[faults.parse(s) for s in specs], **kw))
+
+
+def texts(report):
+    return [t[2] for t in report["statustext"]]
+
+
+def resumed(report, cause):
+    return [t for t in report["statustext"] if t[2].startswith(cause) and "resumed TARGET" in t[2]]
+
+
+@pytest.mark.parametrize("at", [11, 15, 20, 25, 31])
+def test_a_watchdog_reset_in_the_descent_resumes_the_dive(at):
+    r = fly("watchdog@%d" % at)
+    assert r["resets"] == 1 and r["power_cuts"] == 0
+    assert r["landing_error_m"] < 0.5, r["landing_error_m"]
+    said = resumed(r, "Watchdog reset at")
+    assert said and said[0][1] == 2                        # MAV_SEVERITY_CRITICAL, seen by the ground
+    assert "dive state from scratch: TARGET, waiting for the depth to resume" in r["console"]
+    # disarmed by the reset, then the dive's mode again, without an arming
+    modes = [m for t, m in r["modes"] if t > at]
+    assert modes == ["DISARMED", "TARGET"], r["modes"]
+    assert "estimator" not in [f["name"] for f in r["failsafes"]]
+
+
+@pytest.mark.parametrize("spec", ["powercut:3@13", "powercut:1@20", "powercut:6@28"])
+def test_a_power_cut_in_the_descent_resumes_the_dive(spec):
+    r = fly(spec)
+    assert r["power_cuts"] == 1 and r["resets"] == 0
+    assert r["landing_error_m"] < 0.5, r["landing_error_m"]
+    said = resumed(r, "Power lost at")
+    assert said and said[0][1] == 2
+    assert "dive state from flash: TARGET, waiting for the depth to resume" in r["console"]
+    assert r["modes"][-1][1] == "TARGET" and r["failsafes"] == []
+
+
+def test_a_board_powered_off_armed_at_the_surface_comes_back_disarmed():
+    # a passive drop onto a bottom 0.4 m down, resting there armed: never
+    # deeper than RESUME_DEPTH_M, as on deck or on the bench
+    r = fly("powercut@14", scenario="bottom-rest", depth=0.4, duration=28.0)
+    assert r["power_cuts"] == 1
+    after = [m for t, m in r["modes"] if t > 14.0]
+    assert after == ["OFF", "DISARMED"], r["modes"]
+    said = [t for t in r["statustext"] if t[2].startswith("Power lost at")]
+    assert len(said) == 1 and said[0][2].endswith("(surface): DISARMED") and said[0][1] == 4
+    assert said[0][0] >= 14.0 + 10.0   # it waited for the vehicle to sink: SURFACE_WAIT_MS
+
+
+def test_a_reset_of_a_disarmed_board_says_nothing_and_stays_disarmed():
+    r = fly("watchdog@5", scenario="passive-drop", depth=2.0, duration=8.0)
+    assert r["resets"] == 1
+    assert "dive state: none kept" in r["console"]
+    assert not [t for t in texts(r) if "resumed" in t or t.startswith(("Power lost", "Watchdog reset at"))]
+
+
+@pytest.mark.micropython
+def test_a_watchdog_reset_resumes_the_dive_on_micropython():
+    r = fly("watchdog@20", interpreter="micropython")
+    assert r["resets"] == 1
+    assert r["landing_error_m"] < 0.5, r["landing_error_m"]
+    assert resumed(r, "Watchdog reset at")
