@@ -201,9 +201,13 @@ def test_fuzzed_share_on_micropython(micropython):
 
 
 def test_bench_mavlink_reports_the_frames_lost():
+    from roboray.tools.micropython import rp2350_emu
+
+    emu = rp2350_emu.available()
     proc = subprocess.run([sys.executable, "-m", "roboray.sim.cli", "bench", "mavlink", "--frames", "500",
-                           "--repeat", "1", "--no-micropython", "--fuzz", "2000", "--json"],
-                          capture_output=True, text=True, timeout=300)
+                           "--repeat", "1", "--no-micropython", "--fuzz", "2000", "--json"]
+                          + (["--rp2350"] if emu else []),
+                          capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
     for key in ("encode_us", "parse_us_per_byte", "pymavlink_parse_us_per_byte", "parse_speed_ratio"):
@@ -212,3 +216,7 @@ def test_bench_mavlink_reports_the_frames_lost():
     assert out["fuzz_good_frames_lost"] == out["fuzz_good_frames_lost_without_key"] == 0
     assert out["fuzz_damaged_passed"] == 0
     assert out["fuzz_damaged_flagged_without_key"] > 0
+    if emu:   # counted on the emulated RP2350: a signed frame without the key costs no more than one with it
+        for name in ("parse", "signed", "keyed"):
+            assert out["rp2350_%s_insns_per_byte" % name] > 0
+        assert out["rp2350_signed_us_per_frame"] < out["rp2350_keyed_us_per_frame"]

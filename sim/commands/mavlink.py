@@ -19,7 +19,13 @@
   frame's checked bytes covered (no parser trusting checksums finds them);
   ``..._without_key`` the same without the key, and
   ``fuzz_damaged_passed_without_key`` the damaged frames passed on unflagged
-  there (signatures changed in place: only the key can tell).
+  there (signatures changed in place: only the key can tell);
+- with ``--rp2350`` (needs ``qemu-system-arm``): the parser's instructions
+  counted on the emulated RP2350 (exact, the same every run) and its time at
+  the calibrated ns an instruction, a byte and a frame, on the telemetry
+  stream (``rp2350_parse_*``, 64-byte chunks) and on a stream of signed and
+  unsigned frames without the key and with it (``rp2350_signed_*``,
+  ``rp2350_keyed_*``).
 """
 
 from __future__ import annotations
@@ -150,6 +156,89 @@ def _fuzz(n_inputs: int) -> dict:
     }
 
 
+def _signed_stream(n_frames: int) -> bytes:
+    """Every other frame signed (our framer), the telemetry's messages."""
+    from roboray.shared.mavlink import messages as M
+    from roboray.shared.mavlink.frame import Writer
+    from roboray.sim import mavlink_fuzz as F
+
+    rng = random.Random(1)
+    signing = F.receiver()
+    signing.link_id = 1
+    ws, wp = Writer(1, 1, signing), Writer(1, 1)
+    out = bytearray()
+    ids = (M.MSG_ATTITUDE, M.MSG_LOCAL_POSITION_NED, M.MSG_ATTITUDE_QUATERNION, M.MSG_SERVO_OUTPUT_RAW,
+           M.MSG_HEARTBEAT)
+    for i in range(n_frames):
+        w = ws if i % 2 == 0 else wp
+        mid = ids[i % len(ids)]
+        full = M.TABLE[mid][M.MAX_LEN]
+        w.buf[w.payload:w.payload + full] = rng.randbytes(full)
+        out += w.buf[:w.finish(mid)]
+    return bytes(out)
+
+
+_EMU_COUNT = """
+import emuboard, json
+from roboray.shared.mavlink.parser import Parser
+from roboray.shared.mavlink.signing import Signing
+def run(name, key, chunk):
+    rx = bytearray(open(name, 'rb').read())
+    mv = memoryview(rx)
+    s = None
+    if key is not None:
+        s = Signing(key)
+        s.hi = %(hi)d
+    p = Parser(s)
+    n = len(rx)
+    i0 = emuboard.insns()
+    for k in range(0, n, chunk):
+        i = k
+        e = k + chunk if k + chunk < n else n
+        while i < e:
+            i = p.feed(mv, i, e)
+    return [emuboard.insns() - i0, n, p.frames]
+out = {}
+out['parse'] = run('plain.bin', None, 64)
+out['signed'] = run('signed.bin', None, 64)
+out['keyed'] = run('signed.bin', %(key)r, 64)
+print('RESULT ' + json.dumps(out))
+"""
+
+
+def _rp2350(plain: bytes) -> dict:
+    import json
+    import tempfile
+    from pathlib import Path
+
+    from roboray.sim import mavlink_fuzz as F
+    from roboray.sim.twin.timing import load_model
+    from roboray.tools.cli import CliError
+    from roboray.tools.micropython import rp2350_emu
+
+    if not rp2350_emu.available():
+        raise CliError("--rp2350 needs qemu-system-arm")
+    ns = load_model()["calibration"]["ps_per_insn"] / 1000.0
+    with tempfile.TemporaryDirectory(prefix="roboray-mavlink-") as d:
+        Path(d, "plain.bin").write_bytes(plain)
+        Path(d, "signed.bin").write_bytes(_signed_stream(300))
+        lib = rp2350_emu.install_lib(Path(d) / "lib")
+        status, out = rp2350_emu.run(_EMU_COUNT % {"hi": F.CLOCK_HI, "key": F.KEY}, cwd=d, path=(str(lib),),
+                                     timeout=900)
+    for line in out.splitlines():
+        if line.startswith("RESULT "):
+            counts = json.loads(line[7:])
+            break
+    else:
+        raise CliError("the emulated board did not finish (exit %d): %s" % (status, out.strip()[-300:]))
+    result: dict = {"rp2350_ns_per_insn": ns}
+    for name, (insns, nbytes, frames) in counts.items():
+        result["rp2350_%s_insns_per_byte" % name] = insns / nbytes
+        result["rp2350_%s_us_per_byte" % name] = insns / nbytes * ns / 1000.0
+        result["rp2350_%s_us_per_frame" % name] = insns / frames * ns / 1000.0
+    return result
+
+
 def do_bench_mavlink(args: argparse.Namespace) -> None:
     from roboray.shared.mavlink import messages as M
     from roboray.shared.mavlink.frame import Writer
@@ -180,6 +269,8 @@ def do_bench_mavlink(args: argparse.Namespace) -> None:
     }
     if args.fuzz:
         result.update(_fuzz(args.fuzz))
+    if args.rp2350:
+        result.update(_rp2350(data[:20000]))
     if not args.no_micropython:
         from roboray.tools.micropython import MicroPython
 
@@ -211,5 +302,7 @@ def register(sub, bench) -> None:
     p.add_argument("--chunk", type=int, default=64, help="bytes handed to the parsers at a time (default 64)")
     p.add_argument("--repeat", type=int, default=3, help="timing runs, best kept (default 3)")
     p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython figures")
+    p.add_argument("--rp2350", action="store_true",
+                   help="count the parser's instructions on the emulated RP2350 (needs qemu-system-arm)")
     p.add_argument("--fuzz", type=int, default=100000, help="fuzzed inputs for the frames-lost count (default 100000, 0: none)")
     add_json(p)
