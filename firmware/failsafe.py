@@ -25,13 +25,16 @@ bit   failsafe         condition                                        paramete
 3     estimator        armed and an estimate the mode needs (attitude,  FS_EKF_ACTION,         FAILSAFE
                        depth; position in VELOCITY and TARGET) invalid  FS_EKF_THRESH
                        for 1 s, or two of the three innovation test
-                       ratios (compass, depth, fix) above FS_EKF_THRESH
+                       ratios (compass, depth, fix) above FS_EKF_THRESH;
+                       not while the IMU failsafe acts (its cause)
 4     depth sensor     driver unhealthy (bus errors, CRC, impossible    FS_SENSOR_ACT          FAILSAFE
                        values, no fresh conversion), or 8 pressures in
                        a row refused by the estimator (garbage, or
-                       stuck while the accelerometer says it moves),
-                       which lasts until the next arming: the estimator
-                       takes a stuck reading back in after a while
+                       stuck while the accelerometer says it moves;
+                       refusals while it coasts without its IMU do not
+                       count), which lasts until the next arming: the
+                       estimator takes a stuck reading back in after a
+                       while
 5     IMU              accelerometer/gyroscope driver unhealthy         FS_SENSOR_ACT          FAILSAFE
 6     compass          magnetometer driver unhealthy                    FS_MAG_ACT             warn
 7     max depth        estimated depth beyond FS_DEPTH_MAX (0: off)     FS_DEPTH_ACT           warn
@@ -276,7 +279,13 @@ class Failsafes:
         depth_max = p.get(self._i_depth_max)
         if depth_max > 0.0 and nav.valid(nv.DEPTH_VALID) and est.nav[0] > depth_max:
             c |= 1 << MAX_DEPTH
-        if self._ekf_bad(now):
+        # An estimate the IMU's failure leaves invalid is the IMU failsafe's
+        # to act on while it acts (FAILSAFE mode or disarm, and the 3 s it is
+        # held after the IMU recovers): one cause, one failsafe. When it only
+        # warns, FS_EKF_ACTION acts on the estimate.
+        if (c | self.active) & (1 << IMU) and self.action(IMU) >= ACT_DISARM:
+            self._ekf_since = -1
+        elif self._ekf_bad(now):
             c |= 1 << EKF
         sched = self.sched
         if sched is not None and _ticks_diff(now, self._overrun_t) >= OVERRUN_WINDOW_MS:

@@ -3,12 +3,19 @@
 ``Navigation`` owns the vehicle's ``Estimator`` (``shared/estimator``) and
 feeds it from the drivers, as two scheduler tasks:
 
-- ``step()`` (100 Hz): one IMU burst, and every fourth step (25 Hz, the
-  rate the estimator fuses it at: ``MAG_STEPS``) one magnetometer burst,
-  mapped from the chips' axes to the body axes (x along wing 1, z down when
-  level), then ``Estimator.imu`` / ``mag``; a failed IMU read still gives
-  the estimator the time (``check``), which is how it notices a silent IMU;
-  a failed magnetometer read is tried again at the next step;
+- ``step()`` (100 Hz): the IMU's FIFO (every sample since the last step:
+  one in a normal step, four or five after a collection's stall), and
+  every fourth step (25 Hz, the rate the estimator fuses it at:
+  ``MAG_STEPS``) one magnetometer burst, mapped from the chips' axes to the
+  body axes (x along wing 1, z down when level), then ``Estimator.imu`` /
+  ``mag``. The IMU's samples reach the estimator as one step over the
+  interval they cover, with their mean rate and specific force (the sums of
+  their counts times the scale over their number: the delta-angle and
+  delta-velocity of PX4's and ArduPilot's FIFO drivers): a stall costs the
+  next step no more estimator work and boxes no float per sample. A failed
+  IMU read still gives the estimator the time (``check``), which is how it
+  notices a silent IMU (and coasts without it); a failed magnetometer read
+  is tried again at the next step;
 - ``depth_step()`` (every 20 ms): the MS5837 state machine; a fresh pressure
   goes to ``Estimator.depth`` with the middle of its conversion as its time.
   It also counts the pressures the estimator's gate rejected in a row
@@ -16,6 +23,9 @@ feeds it from the drivers, as two scheduler tasks:
   or sticks while the vehicle still moves, is caught there, by its
   disagreement with the accelerometer, never by a reading that stays the
   same (a vehicle resting on the bottom reads the same depth for minutes).
+  Only refusals against a prediction the IMU drove count
+  (``Estimator.depth_blamed``): while the estimator coasts without its
+  IMU, a refusal says nothing about the depth sensor.
 
 Position fixes (ATT_POS_MOCAP from the ground's tracker relay) arrive
 through ``fix(north, east)``; the tracker's latency plus the radio's is the
@@ -59,6 +69,10 @@ _G = 9.80665
 #: The magnetometer is read every this many steps (25 Hz), as often as the
 #: estimator fuses it (``Estimator``'s ``mag_period_s``).
 MAG_STEPS = const(4)
+#: Scales kept for means of up to this many IMU samples (a collection's
+#: stall leaves 4 or 5); more are scaled when they come (after a longer
+#: stall), boxing six floats then.
+_KN = const(8)
 _WATER = 1000.0
 _SURFACE_MAX_M = 1.0
 
@@ -106,7 +120,6 @@ ATTITUDE_VALID = eh.ATTITUDE_VALID
 DEPTH_VALID = eh.DEPTH_VALID
 POSITION_VALID = eh.POSITION_VALID
 
-_REJECTS = eh.STATUS_DEPTH_REJECTS
 _HEALTH = eh.STATUS_HEALTH
 
 
@@ -143,17 +156,22 @@ class Navigation:
         if rot is None:
             raise ValueError("AHRS_ORIENTATION %d is not supported (0, 2, 4, .. 14: yaw in 90 deg steps, "
                              "with or without roll 180)" % orientation)
-        # Per body value (accel x y z, gyro x y z from the LSM6DSOX's ``raw``
-        # [temp, gx, gy, gz, ax, ay, az]; field x y z from the LIS3MDL's
-        # [temp, x, y, z]): the raw count it comes from, and the counts-to-SI
-        # scale with the axis's sign. A value is then one multiplication of
-        # a small integer: one boxed float, where scaling, negating and
-        # copying through float arrays boxed two or three.
-        self._raw_i = bytes([4 + rot[k][0] for k in range(3)] + [1 + rot[k][0] for k in range(3)]
+        # Per body value (accel x y z, gyro x y z from the LSM6DSOX's ``sums``
+        # [n_gyro, gx, gy, gz, n_accel, ax, ay, az]; field x y z from the
+        # LIS3MDL's [temp, x, y, z]): the count it comes from, and the
+        # counts-to-SI scale with the axis's sign. A value is then one
+        # multiplication of a small integer: one boxed float, where scaling,
+        # negating and copying through float arrays boxed two or three.
+        self._raw_i = bytes([5 + rot[k][0] for k in range(3)] + [1 + rot[k][0] for k in range(3)]
                             + [1 + rot[k][0] for k in range(3)])
         self._scale = ([-ACCEL_SCALE if rot[k][1] else ACCEL_SCALE for k in range(3)]
                        + [-GYRO_SCALE if rot[k][1] else GYRO_SCALE for k in range(3)]
                        + [-MAG_SCALE if rot[k][1] else MAG_SCALE for k in range(3)])
+        # the IMU's scales over n samples (the sums' mean), made once: a
+        # mean costs a step what one sample does
+        self._kn = [[k / n for k in self._scale[:6]] for n in range(1, _KN + 1)]
+        self._kn.insert(0, self._scale[:6])
+        self._kx = self._scale[:6]     # filled for a mean of more than _KN
         #: The last IMU and magnetometer sample in body axes: accel (m/s^2), gyro (rad/s), field (gauss).
         self.body = array("f", [0.0] * 9)
         self._mag_wait = 0
@@ -178,6 +196,7 @@ class Navigation:
         #: Fresh pressures the estimator's gate rejected in a row.
         self.depth_rejected_run = 0
         self._rejects_seen = 0
+        self._used_seen = 0
         self._fed = False
 
     def configure_compass(self):
@@ -202,13 +221,18 @@ class Navigation:
         imu = self.imu
         b = self.body
         if imu.read():
-            r = imu.raw
-            ax = r[i[0]] * k[0]
-            ay = r[i[1]] * k[1]
-            az = r[i[2]] * k[2]
-            gx = r[i[3]] * k[3]
-            gy = r[i[4]] * k[4]
-            gz = r[i[5]] * k[5]
+            r = imu.sums
+            n = r[4]
+            ka = self._kn[n] if n <= _KN else self._mean_scale(n)
+            ax = r[i[0]] * ka[0]
+            ay = r[i[1]] * ka[1]
+            az = r[i[2]] * ka[2]
+            n = r[0]
+            self.imu_samples += n
+            kg = self._kn[n] if n <= _KN else self._mean_scale(n)
+            gx = r[i[3]] * kg[3]
+            gy = r[i[4]] * kg[4]
+            gz = r[i[5]] * kg[5]
             b[0] = ax
             b[1] = ay
             b[2] = az
@@ -216,7 +240,6 @@ class Navigation:
             b[4] = gy
             b[5] = gz
             est.imu(t, gx, gy, gz, ax, ay, az)
-            self.imu_samples += 1
         else:
             est.check(t)
         # Due, the magnetometer waits (two steps at most) for a step in
@@ -240,17 +263,29 @@ class Navigation:
         else:
             self._mag_wait = 1    # try again next step
 
+    def _mean_scale(self, n):
+        # the scales over n samples, in the one spare list (after a long stall)
+        k = self._scale
+        x = self._kx
+        for j in range(6):
+            x[j] = k[j] / n
+        return x
+
     def depth_step(self):
         """Scheduler task (every 20 ms): the pressure sensor to the estimator."""
         est = self.est
         if self._fed:
             # the estimator fused (or refused) the previous pressure by now
-            rejects = est.status[_REJECTS]
+            rejects = est.depth_blamed
+            used = est.depth_used
             if rejects != self._rejects_seen:
                 self._rejects_seen = rejects
                 self.depth_rejected_run += 1
-            else:
+            elif used != self._used_seen:
                 self.depth_rejected_run = 0
+            # neither: too old to fuse (a stall), or refused while the
+            # estimator coasted; the run neither grows nor ends
+            self._used_seen = used
             self._fed = False
         d = self.depth
         if d.update():

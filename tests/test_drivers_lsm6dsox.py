@@ -48,14 +48,21 @@ def mp(board):
 def test_configures_the_chip_and_scales_to_si(mp):
     mp.exec("drv = LSM6DSOX(i2c)\n"
             "dev.set_accel(1.0, -2.0, 9.80665)\ndev.set_gyro(0.1, -0.2, 0.3)\ndev.set_temperature(31.5)")
-    assert mp.eval("[dev.regs[0x10], dev.regs[0x11], dev.regs[0x12]]") == [0x58, 0x54, 0x44]
-    assert mp.eval("step(10)") == 10
+    # 104 Hz, +-4 g, +-500 dps, BDU and IF_INC; both batched into the FIFO
+    # at 104 Hz, the temperature at 1.6 Hz, continuous mode
+    assert mp.eval("[dev.regs[0x10], dev.regs[0x11], dev.regs[0x12]]") == [0x48, 0x44, 0x44]
+    assert mp.eval("[dev.regs[0x09], dev.regs[0x0A]]") == [0x44, 0x16]
+    # 104 Hz against 100 Hz: one read in ~25 finds nothing yet; 0.7 s for a
+    # temperature (batched at 1.6 Hz)
+    assert mp.eval("step(70)") >= 67
     accel = mp.eval("list(drv.accel)")
     gyro = mp.eval("list(drv.gyro)")
+    # within half a count, and the emulated part's own +-1 count (its noise
+    # floor: a steady input never batches the same word twice)
     for got, want in zip(accel, (1.0, -2.0, G)):
-        assert abs(got - want) <= ACCEL_LSB / 2 + 1e-6
+        assert abs(got - want) <= 1.5 * ACCEL_LSB + 1e-6
     for got, want in zip(gyro, (0.1, -0.2, 0.3)):
-        assert abs(got - want) <= GYRO_LSB / 2 + 1e-7
+        assert abs(got - want) <= 1.5 * GYRO_LSB + 1e-7
     assert mp.eval("drv.temp_c[0]") == pytest.approx(31.5, abs=1 / 256)
     assert mp.eval("drv.health.healthy()") is True
 
@@ -67,19 +74,29 @@ def test_full_scale_clips_at_4_g_and_500_dps(mp):
     assert mp.eval("drv.accel[1]") == pytest.approx(32767 * ACCEL_LSB, rel=1e-6)
 
 
-def test_reading_faster_than_the_output_rate_is_stale_not_new(mp):
-    # 208 Hz: two reads 1 ms apart see one sample
-    mp.exec("drv = LSM6DSOX(i2c)\nstep()\nvclock.advance(1000)\nr = drv.read()")
+def test_reading_faster_than_the_batch_rate_finds_nothing_and_only_a_silence_is_stale(mp):
+    # 104 Hz: a read 1 ms after one that emptied the FIFO finds nothing,
+    # which is no error; a part that batches nothing for longer than
+    # STALE_MS (a reset to power-down) is stale
+    mp.exec("drv = LSM6DSOX(i2c)\nstep(3)\nvclock.advance(1000)\nr = drv.read()")
     assert mp.eval("r") is False
+    assert mp.eval("drv.health.errors") == 0 and mp.eval("drv.health.healthy()") is True
+    mp.exec("dev.power_on()\nstep(3)")
     assert mp.eval("drv.health.last_error") == ERR_STALE
-    assert mp.eval("drv.health.healthy()") is True  # one stale read is no failure
 
 
 def test_a_read_allocates_only_its_floats(mp):
     mp.exec("drv = LSM6DSOX(i2c)\nstep()")
     # counts only (accel and gyro are scaled when asked for); a new
-    # temperature boxes two floats
-    assert mp.alloc_bytes("vclock.advance(10000); drv.read()") <= 2 * 16
+    # temperature boxes two floats. The emulated part batches its words
+    # first (its own float arithmetic is the twin's, not the driver's).
+    # The emulated part's status read allocates (the twin's code, counted
+    # alone and taken off).
+    mp.exec("st = bytearray(2)")
+    device = mp.alloc_bytes("i2c.readfrom_mem_into(0x6A, 0x3A, st)")
+    for n in (1, 2, 5):   # one sample of each, and a stall's backlog
+        mp.exec("vclock.advance(%d)\ndev._sync()" % (10000 * n))
+        assert mp.alloc_bytes("drv.read()") - device <= 2 * 16, n
 
 
 def test_absent_or_wrong_part_is_named_by_address(mp):
@@ -109,7 +126,8 @@ def test_garbage_shows_as_impossible_values(mp):
 def test_a_part_that_reset_itself_is_reconfigured(mp):
     # A supply dip resets the chip to power-down: no more samples, so reads go
     # stale; after ten the driver writes its configuration again.
-    mp.exec("drv = LSM6DSOX(i2c)\nstep(5)\ndev.power_on()\nstep(10)")
+    # (the first two reads after it are within STALE_MS of the last sample)
+    mp.exec("drv = LSM6DSOX(i2c)\nstep(5)\ndev.power_on()\nstep(12)")
     assert mp.eval("drv.health.counts[%d]" % ERR_STALE) == 10
     assert mp.eval("drv.reconfigurations") == 1
     assert mp.eval("step(3)") == 3
@@ -128,7 +146,8 @@ def test_a_part_at_rest_is_live_and_a_frozen_one_is_caught_by_its_counts(mp):
     assert mp.eval("drv.health.healthy()") is True
     # frozen, and a reconfiguration (every 10 failures) that resets the part
     # to zeros once does not make it live again
-    assert mp.eval("step(60)") == 0
+    # (the first sample after each reconfiguration is compared with nothing)
+    assert mp.eval("step(60)") <= 6
     assert mp.eval("drv.reconfigurations") >= 5
     assert mp.eval("drv.health.last_error") == ERR_FROZEN
     assert mp.eval("drv.health.healthy()") is False

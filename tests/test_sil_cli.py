@@ -39,7 +39,10 @@ def test_a_target_landing_gives_the_documented_json_and_its_plot(sim, tmp_path):
         assert key in out, key
     assert out["landed"] and out["target"] == [0.6, -0.3] and out["bottom_depth_m"] == 4.0
     assert out["landing_error_m"] < 0.25
-    assert out["failsafes"] == [] and out["overruns"] == 0 and out["max_loop_ms"] == 0.0
+    # the default twin charges the board's time (the model calibrated on the
+    # emulated RP2350): the loop's worst slot is a planned stall (a
+    # collection, a flash save), never an overrun
+    assert out["failsafes"] == [] and out["overruns"] == 0 and out["max_loop_ms"] > 0.0
     assert out["real_time_factor"] > 1.0
     assert png.stat().st_size > 20000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -262,8 +262,9 @@ def test_register_reads_by_burst_wrap_and_repeat_read_the_registers(mp):
     mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x10, 0x58)\nput(0x6A, 0x11, 0x54)\n"
             "d.set_motion(1.0, -2.0, 9.0, 0.1, -0.2, 0.3)\ntime.sleep_ms(5)\nreg(0x6A, 0x1E, 2)\n"
             "put(0x6A, 0x10, 0x00)\nput(0x6A, 0x11, 0x00)\n"      # a sample latched, then stopped
-            "d.regs[0x7E] = 0xAB\nd.regs[0x7F] = 0xCD\nsnap = list(d.regs)")
-    for first, n in ((0x22, 12), (0x22, 12), (0x28, 6), (0x7E, 4), (0x7E, 4), (0x0F, 1), (0x11, 2), (0x11, 2)):
+            "d.regs[0x7F] = 0xCD\nsnap = list(d.regs)")
+    # (0x78-0x7E are the FIFO's output, tested with the FIFO; 0x7F wraps to 0x00)
+    for first, n in ((0x22, 12), (0x22, 12), (0x28, 6), (0x7F, 3), (0x7F, 3), (0x0F, 1), (0x11, 2), (0x11, 2)):
         assert mp.eval("reg(0x6A, %d, %d)" % (first, n)) == [
             mp.eval("snap[%d]" % ((first + i) & 0x7F)) for i in range(n)], (first, n)
     assert mp.eval("snap[0x22:0x2E] != [0] * 12") is True
@@ -339,3 +340,47 @@ def test_a_parts_own_noise_moves_its_counts_around_the_input(mp):
         values = [s[axis] for s in seen]
         assert all(abs(v - want[axis]) <= 3 for v in values)
         assert len(set(values)) >= 4     # it moves
+
+
+def test_lsm6dsox_fifo_batches_tags_counts_and_overruns_as_the_datasheet_says(mp):
+    # DS12814 sec. 9: FIFO_CTRL3 BDR_GY/BDR_XL 104 Hz, FIFO_CTRL4 continuous
+    # (110); words of a tag (TAG_SENSOR in bits 7:3) and X, Y, Z; FIFO_STATUS1/2
+    # DIFF_FIFO, FIFO_OVR_IA (6) and FIFO_OVR_LATCHED (3, cleared by the read)
+    mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x10, 0x48)\nput(0x6A, 0x11, 0x44)\n"
+            "put(0x6A, 0x09, 0x44)\nput(0x6A, 0x0A, 0x06)\n"
+            "d.set_motion(1.0, -2.0, 9.0, 0.1, -0.2, 0.3)\ntime.sleep_ms(50)\nst = reg(0x6A, 0x3A, 2)")
+    n = mp.eval("st[0] | (st[1] & 3) << 8")
+    assert n == 10 and mp.eval("st[1] & 0x48") == 0     # 5 periods of 9.615 ms, gyroscope and accelerometer
+    words = mp.eval("reg(0x6A, 0x78, 7 * %d)" % n)       # one burst: 0x7E wraps to 0x78
+    tags = [words[7 * k] >> 3 for k in range(n)]
+    assert tags == [0x01, 0x02] * 5
+    s16 = lambda lo, hi: ((lo | hi << 8) ^ 0x8000) - 0x8000   # noqa: E731
+    accel = [s16(words[7 * k + 1], words[7 * k + 2]) for k in range(n) if tags[k] == 0x02]
+    assert all(abs(a - 1.0 / (0.122e-3 * 9.80665)) <= 1.5 for a in accel)
+    assert mp.eval("reg(0x6A, 0x3A, 2)") == [0, 0]                       # read out
+    # 3 s in continuous mode overruns the 512 words: the newest kept, the loss flagged once
+    mp.exec("time.sleep_ms(3000)")
+    st = mp.eval("reg(0x6A, 0x3A, 2)")
+    assert (st[0] | (st[1] & 3) << 8) == 512 and st[1] & 0x48 == 0x48
+    assert mp.eval("reg(0x6A, 0x3B, 1)")[0] & 0x08 == 0                   # latched bit cleared by the read
+
+
+def test_lsm6dsox_fifo_words_are_the_mean_of_the_motion_over_their_period(mp):
+    # The twin's world moves the input once a 10 ms step; the chip samples at
+    # 104 Hz. A word is the mean over its own 9.615 ms, so the sum of the
+    # words times the period is the motion's integral (what a stall's
+    # backlog must give the estimator), whatever the phase of the two grids.
+    mp.exec("d = machine.twin.attach(0, LSM6DSOXDevice())\nput(0x6A, 0x10, 0x48)\nput(0x6A, 0x11, 0x44)\n"
+            "put(0x6A, 0x09, 0x04)\nput(0x6A, 0x0A, 0x06)\n"       # the accelerometer alone
+            "lsb = d.accel_lsb()\nt0 = time.ticks_us()\nsteps = [0.0, 30.0, -10.0, 0.0, 5.0, 0.0, 0.0, 0.0]\n"
+            "for a in steps:\n"
+            "    d.set_motion(a, 0.0, 9.80665, 0.0, 0.0, 0.0)\n"
+            "    time.sleep_ms(10)\n"
+            "d.set_motion(0.0, 0.0, 9.80665, 0.0, 0.0, 0.0)\n"
+            "st = reg(0x6A, 0x3A, 2)\nn = st[0]\nw = reg(0x6A, 0x78, 7 * n)\n"
+            "xs = [(((w[7 * k + 1] | w[7 * k + 2] << 8) ^ 0x8000) - 0x8000) * lsb for k in range(n)]\n")
+    n = mp.eval("n")
+    assert n == 8          # 80 ms at 9.615 ms a word
+    integral = mp.eval("sum(xs) * 9615e-6")
+    # the motion's integral over the words' span: 0.3 - 0.1 + 0.05 = 0.25 m/s
+    assert integral == pytest.approx(0.25, abs=0.002)

@@ -32,10 +32,11 @@ ERR_RANGE = const(3)      # a value the part cannot produce (reserved bits, out 
 ERR_STALE = const(4)      # no new sample where one was due
 ERR_NOT_READY = const(5)  # a conversion read before it finished (the part returned 0)
 ERR_FROZEN = const(6)     # new samples flagged, every output count the same as the last ones
+ERR_OVERFLOW = const(7)   # samples lost: the part's FIFO overflowed, or held more than a read takes
 
 #: Text for each code, for logs and STATUSTEXT.
 ERRORS = ("ok", "bus error", "CRC mismatch", "impossible value", "no fresh data", "conversion not ready",
-          "outputs frozen")
+          "outputs frozen", "samples lost")
 
 #: Samples in a row with every output count unchanged that make a part
 #: frozen (the module docstring says why this is no reading at rest).

@@ -190,6 +190,27 @@ class Attitude:
         quat.from_euler(self.q, math.atan2(-ay, -az), math.asin(s), 0.0)
         self._rotation()
 
+    def relevel(self, ax, ay, az):
+        """Roll and pitch from one specific-force sample, the heading kept:
+        after the IMU was lost, the attitude held meanwhile is whatever the
+        vehicle did since, the direction of gravity is not."""
+        R = self.R
+        yaw = math.atan2(R[3], R[0])
+        n = math.sqrt(ax * ax + ay * ay + az * az)
+        if n < 1e-3:
+            return
+        s = ax / n
+        if s > 1.0:
+            s = 1.0
+        elif s < -1.0:
+            s = -1.0
+        quat.from_euler(self.q, math.atan2(-ay, -az), math.asin(s), yaw)
+        self._rotation()
+        e = self.e
+        e[0] = 0.0
+        e[1] = 0.0
+        e[2] = 0.0
+
     def set_bias(self, bx, by, bz):
         b = self.bias
         b[0] = bx

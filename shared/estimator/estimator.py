@@ -61,6 +61,17 @@ _STALE_US = const(50000)
 _SETTLED_STEPS = const(100)    # 1 s of tilt error < 1 deg ...
 _SETTLED_MAG = const(100)      # ... and 100 heading samples averaging < 1 deg end the alignment
 _MAX_GAP_US = const(250000)
+#: The fraction of an integrated vertical speed change taken as its error
+#: (one sigma): the wing fold of a failsafe, integrated from the IMU, came
+#: out 15-25 % off the speed the pressure showed (the twin, passive drop).
+_DYNAMIC_ERROR = 0.5
+#: A step longer than this since the last IMU sample is a stall's backlog
+#: (the nav loop's period is 10 ms).
+_GAP_US = const(25000)
+#: A pressure older than this when its turn comes is not fused: the MS5837
+#: dates a sample at the middle of its conversion, ~8 ms before it is read
+#: in a steady loop; ~40 ms after a collection's stall.
+_DEPTH_LAG_MAX_US = const(25000)
 #: Interval between magnetometer fusions, s (see ``Estimator``'s ``mag_period_s``).
 MAG_PERIOD_S = 0.04
 #: Degrees per radian over four wings: mean fold in degrees from the sum of angles.
@@ -142,6 +153,15 @@ class Estimator:
         self.status = array("i", [0] * _h.STATUS_SIZE)
         #: Last innovation test ratios (``health.INNOV_*``).
         self.innovation = array("f", [0.0] * _h.INNOV_SIZE)
+        #: Depth samples the gate refused while the vertical prediction was
+        #: the IMU's since the last sample it took: evidence against the
+        #: depth sensor. A refusal after the filter coasted without the IMU
+        #: (``_coast``) is not: the prediction, not the pressure, is in doubt.
+        self.depth_blamed = 0
+        #: Pressures too old to fuse when their turn came (after a stall),
+        #: and those fused.
+        self.depth_stale = 0
+        self.depth_used = 0
 
         # ----- configuration
         self._ix = float(imu_position[0])
@@ -204,6 +224,8 @@ class Estimator:
     def _reset_times(self):
         self._started = False
         self._t_imu = 0
+        self._t_imu_seen = 0
+        self._imu_lost = False
         self._t_start = 0
         self._t_servo = 0
         self._servo_seen = False
@@ -343,7 +365,17 @@ class Estimator:
         else:
             self.job = JOB_NONE
         self._t_imu = t_us
+        self._t_imu_seen = t_us
         att = self.att
+        if self._imu_lost:
+            # the first sample after coasting without the IMU: the attitude
+            # held meanwhile is stale (the vehicle turned, its failsafe
+            # moved the wings), and the vertical prediction would integrate
+            # gravity leaking through the stale tilt (issue 16: 10 deg off
+            # after a 3 s outage made 0.9 m/s^2 of false acceleration, and the
+            # depth gate refused good pressures). Level again from gravity.
+            self._imu_lost = False
+            att.relevel(ax, ay, az)
         if att.fast and ((t_us - self._t_start + _HALF) & _TMAX) - _HALF >= self._startup_us \
                 and att.tilt_settled >= _SETTLED_STEPS \
                 and (att.heading_settled >= self._settled_mag or not self._mag_seen):
@@ -354,17 +386,40 @@ class Estimator:
             R = att.R
             # Vertical.predict, written out (a call costs as much as three
             # or four float operations on the board)
-            x = self.vert.x
-            w = x[1]
-            x[0] = x[0] + w * dt
-            w = w + (R[6] * ax + R[7] * ay + R[8] * az + _G - x[2]) * dt
+            vert = self.vert
+            x = vert.x
+            dw = (R[6] * ax + R[7] * ay + R[8] * az + _G - x[2]) * dt
+            w = x[1] + dw
+            # the mean speed over the step: after a stall the step is 50 ms,
+            # and the old speed's distance would be off by dw dt / 2
+            x[0] = x[0] + (w + x[1]) * 0.5 * dt
             x[1] = w
+            # The speed change integrated here is trusted to a fraction of
+            # itself (``DYNAMIC_ERROR``): folding wings, an impact, a fast
+            # turn integrate with errors of their own size (the attitude
+            # used to rotate the specific force, the sensor's scale, its
+            # lever arm), where ``accel_psd`` only knows the sensor's
+            # noise. In a steady descent dw is ~1e-3 m/s and this adds
+            # nothing; through a wing fold the filter lets the pressures
+            # steer it instead of refusing them.
+            e = dw * _DYNAMIC_ERROR
+            P = vert.P
+            P[3] = P[3] + e * e
+            if n > _GAP_US:
+                # a long step (a stall's backlog): where in it the change
+                # happened is unknown, and the distance with it
+                e = e * dt
+                P[0] = P[0] + e * e
             self.hor.predict(t_us, dt, R, w)
         self._outputs()
 
     def check(self, t_us):
-        """Re-evaluate the health flags against the caller's clock ``t_us``
-        (notices a silent IMU); returns the health bits."""
+        """No IMU sample this step: re-evaluate the health flags against the
+        caller's clock ``t_us`` (notices a silent IMU); returns the health
+        bits. Once the IMU has been silent for its time-out, the estimator
+        coasts to ``t_us`` (``_coast``): depth and fixes are still fused."""
+        if self._started and ((t_us - self._t_imu_seen + _HALF) & _TMAX) - _HALF > self._to_imu:
+            self._coast(t_us)
         self._health(t_us)
         return self.status[_h.STATUS_HEALTH]
 
@@ -373,9 +428,47 @@ class Estimator:
         self.att.level_from_accel(ax, ay, az)
         self.att.fast = True
         self._t_imu = t_us
+        self._t_imu_seen = t_us
         self._t_start = t_us
         self._started = True
         self._health(t_us)
+        self._outputs()
+
+    def _coast(self, t_us):
+        """The IMU is silent (or its samples were refused): move the state to
+        ``t_us`` without it. The attitude holds; the vertical filter goes on
+        at its speed, its covariance growing with the accelerations the
+        vehicle could have had meanwhile (``Vertical.coast``), so the
+        pressures that arrive pass its gate and steer it; the horizontal
+        filter follows the descent model. One pending job first, as a step
+        does (the magnetometer waits for the IMU: it needs the attitude)."""
+        n = ((t_us - self._t_imu + _HALF) & _TMAX) - _HALF
+        if n <= 0:
+            return
+        self._steps += 1
+        p = self._pending
+        if p & _PEND_FIX:
+            self._pending = p & ~_PEND_FIX
+            self.job = JOB_FIX
+            self._fuse_fix()
+        elif p & _PEND_DEPTH:
+            self._pending = p & ~_PEND_DEPTH
+            self.job = JOB_DEPTH
+            self._fuse_depth()
+        elif self._steps >= _HOUSEKEEPING_STEPS:
+            self._steps = 0
+            self.job = JOB_HOUSEKEEPING
+            self._housekeeping()
+        else:
+            self.job = JOB_NONE
+        vert = self.vert
+        vert.propagate(self._t_imu)
+        vert.coast(t_us)
+        self.att.accel_used = False
+        self._imu_lost = True
+        self._t_imu = t_us
+        if n <= _MAX_GAP_US:
+            self.hor.predict(t_us, n * 1e-6, self.att.R, vert.x[1])
         self._outputs()
 
     def _fuse_mag(self):
@@ -429,15 +522,26 @@ class Estimator:
             self._t_depth_ok = t
             self._depth_seen = True
             return
+        n = ticks_diff(self._t_imu, t)
+        if n > _DEPTH_LAG_MAX_US:
+            # taken before a stall ended: its back-projection by the
+            # present speed would cross whatever the stall hid (a bottom
+            # met, a bounce); the next pressure is 20 ms away
+            self.depth_stale += 1
+            return
         vert.propagate(self._t_imu)
-        lag = ticks_diff(self._t_imu, t) * 1e-6
-        used = vert.update(z, lever, lag)
+        used = vert.update(z, lever, n * 1e-6)
         self.innovation[_h.INNOV_DEPTH] = vert.ratio
         if used:
+            self.depth_used += 1
             self._t_depth_ok = t
             self._depth_seen = True
         else:
             self.status[_h.STATUS_DEPTH_REJECTS] += 1
+            if not vert.coasted:
+                # refused against a prediction the IMU drove: the sensor's
+                # word against the accelerometer's (see ``depth_blamed``)
+                self.depth_blamed += 1
 
     def _fuse_fix(self):
         hor = self.hor
@@ -500,7 +604,7 @@ class Estimator:
     def _health(self, t_us):
         h = 0
         t = t_us + _HALF
-        if self._started and ((t - self._t_imu) & _TMAX) < self._lim_imu:
+        if self._started and ((t - self._t_imu_seen) & _TMAX) < self._lim_imu:
             h = _IMU_OK
         if self._mag_seen and ((t - self._t_mag_ok) & _TMAX) < self._lim_mag:
             h |= _MAG_OK

@@ -47,7 +47,7 @@ class Vertical:
 
     def __init__(self, meas_var=5e-6, accel_psd=1e-4, bias_psd=1e-6,
                  gate=5.0, reacquire=12, depth_var0=1.0, speed_var0=0.04,
-                 bias_var0=0.04):
+                 bias_var0=0.04, coast_psd=0.5):
         if meas_var <= 0.0 or accel_psd <= 0.0 or bias_psd < 0.0 or gate <= 0.0:
             raise ValueError("vertical filter noise and gate must be positive")
         #: [depth m, vertical speed m/s, accel bias m/s^2]
@@ -64,7 +64,10 @@ class Vertical:
         self._g2 = gate * gate
         self._reacquire = reacquire
         self._var0 = (depth_var0, speed_var0, bias_var0)
+        self._qc = coast_psd
         self.t_cov = 0
+        #: The state coasted without the IMU since the last depth it took.
+        self.coasted = False
 
     def reset(self, depth, t_us):
         """Restart at ``depth`` (m), at rest, bias kept, covariance reset."""
@@ -82,6 +85,26 @@ class Vertical:
         self.t_cov = t_us
         self.initialised = True
         self.rejects = 0
+        self.coasted = False
+
+    def coast(self, t_us):
+        """No IMU from the covariance's tick to ``t_us``: the state goes on
+        at its speed, and the covariance grows as under an acceleration
+        noise of ``coast_psd`` ((m/s^2)^2/Hz; 0.5: about 1 m/s^2 the
+        vehicle could have had, changing over ~0.5 s: the bottom's impact
+        stops a 0.3 m/s descent in ~0.2 s), where ``accel_psd`` is the
+        measured acceleration's error. The gate then takes the pressures
+        that tell where the vehicle went."""
+        n = ticks_diff(t_us, self.t_cov)
+        if n <= 0:
+            return
+        x = self.x
+        x[0] = x[0] + x[1] * (n * 1e-6)
+        qa = self._qa
+        self._qa = self._qc
+        self.propagate(t_us)
+        self._qa = qa
+        self.coasted = True
 
     def predict(self, dt, a_down):
         """Advance the state by ``dt`` s with the downward acceleration (m/s^2)."""
@@ -143,6 +166,7 @@ class Vertical:
                 self.rejects = 0
             return 0
         self.rejects = 0
+        self.coasted = False
         inv = 1.0 / s
         k0 = p00 * inv
         k1 = p01 * inv

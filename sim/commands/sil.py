@@ -310,9 +310,8 @@ def add_board_time_options(p) -> None:
     p.add_argument("--cpu-mhz", type=cpu_mhz, default=150.0,
                    help="the board's clock: compute time scales with 150/MHZ (default 150, a Pico 2's)")
     p.add_argument("--board-time", choices=BOARD_TIMES, default=None,
-                   help="what code costs: auto (counted instructions on rp2350-emu, the model calibrated on it "
-                        "elsewhere), model, or free (time moves only when the firmware sleeps); default: counted on "
-                        "rp2350-emu, free elsewhere")
+                   help="what code costs: auto (the default: counted instructions on rp2350-emu, the model "
+                        "calibrated on it elsewhere), model, or free (time moves only when the firmware sleeps)")
     p.add_argument("--romfs", action="store_true",
                    help="rp2350-emu: the board code in the Pico 2's ROMFS partition (bytecode run in place from "
                         "flash, off the heap), as mpremote romfs deploy puts it, instead of /lib")

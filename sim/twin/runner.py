@@ -420,7 +420,8 @@ class Twin:
         if options.romfs and options.interpreter != "rp2350-emu":
             raise ValueError("--romfs: only the emulated RP2350 (--interpreter rp2350-emu) has a ROMFS partition")
         if options.board_time is None:
-            options.board_time = "auto" if options.interpreter == "rp2350-emu" else "free"
+            # counted on the emulated RP2350, the model calibrated there elsewhere
+            options.board_time = "auto"
         if options.board_time not in BOARD_TIMES:
             raise ValueError("--board-time %r: %s" % (options.board_time, ", ".join(BOARD_TIMES)))
         if not (options.cpu_mhz == options.cpu_mhz and 1.0 <= options.cpu_mhz <= 1000.0):

@@ -48,7 +48,10 @@ def write_model(model: dict, partial: bool = False, path: Path = MODEL_PATH) -> 
 
 def config(interpreter: str, board_time: str, cpu_mhz: float, model: Optional[dict] = None) -> Optional[dict]:
     """``lockstep.run``'s ``board_time`` for an interpreter: None when code is
-    free; ``model`` instead of the calibrated one."""
+    free (``free``); ``auto`` (the twin's default) counts instructions on the
+    emulated RP2350 and charges the model calibrated there on the other
+    interpreters, ``model`` charges it everywhere; ``model`` (the argument)
+    instead of the calibrated one."""
     if board_time == "free":
         return None
     if model is not None:

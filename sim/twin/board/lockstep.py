@@ -154,7 +154,9 @@ class Lockstep:
             k = 0
         self._k = k + _ROW
         s = self._steps[k:k + _ROW]
-        self.imu.set_motion(s[0], s[1], s[2], s[3], s[4], s[5])
+        # dated at its boundary (now less the time still to step): after a
+        # stall the IMU's FIFO batches each sample with its own step's motion
+        self.imu.set_motion(s[0], s[1], s[2], s[3], s[4], s[5], (vclock.now_us - self._acc) & 0x3FFFFFFF)
         self.mag.set_field(s[6], s[7], s[8])
         p = s[9]
         if p == p:   # NaN: unchanged
