@@ -336,6 +336,45 @@ def _f32(x: float) -> bytes:
     return struct.pack("<f", x)
 
 
+# --------------------------------------------------------------- signing
+def do_signing(args: argparse.Namespace) -> None:
+    """MAVProxy's ``signing setup PASSPHRASE`` and ``signing remove``.
+
+    ``--key``/``--key-file`` give the vehicle's current key (none: it has
+    none). Setup sends SETUP_SIGNING with the passphrase's key and our wall
+    clock, remove an all-zero key; either is confirmed by an exchange under
+    the new key (``Link.change_key``)."""
+    from roboray.ground.link import key_from_passphrase
+
+    if args.action == "setup":
+        if len(args.rest) != 1 or not args.rest[0]:
+            raise UsageError("usage: signing setup PASSPHRASE (the vehicle's current key, if any, with --key)")
+        new: Optional[bytes] = key_from_passphrase(args.rest[0])
+    else:
+        if args.rest:
+            raise UsageError("usage: signing remove --key PASSPHRASE (the vehicle's current key)")
+        new = None
+    link = _connect(args)
+    try:
+        if link.key is None and link.vehicle_signs():
+            raise CliError("the vehicle signs its frames: it has a key; give the current one with --key or --key-file")
+        if new is None and link.key is None:
+            result = {"signing": "off", "system": link.target_system, "changed": False}
+            emit(args, result, lambda r: "vehicle %d has no signing key: nothing to remove" % link.target_system)
+            return
+        link.change_key(new, timeout=args.ack_timeout)
+    finally:
+        link.close()
+    sysid = link.target_system
+    if new is not None:
+        emit(args, {"signing": "on", "system": sysid, "changed": True},
+             lambda r: "signing key set on vehicle %d: it now obeys only frames signed with it "
+                       "(give it with --key)" % sysid)
+    else:
+        emit(args, {"signing": "off", "system": sysid, "changed": True},
+             lambda r: "signing removed on vehicle %d: it takes unsigned frames" % sysid)
+
+
 # ----------------------------------------------------------------- watch
 def do_watch(args: argparse.Namespace) -> None:
     """Live view; redraws in place on a terminal, one line a second otherwise."""
@@ -542,6 +581,15 @@ def build_parser():
     p.add_argument("--param-timeout", type=float, default=10.0, help="seconds for a full parameter list")
     p.add_argument("--partial", action="store_true",
                    help="load: set the file's good lines and list the bad ones (default: all or nothing)")
+    add_json(p)
+
+    p = command(sub, "signing", do_signing,
+                "set the vehicle's signing key from a passphrase (setup PASSPHRASE) or remove it (remove)")
+    p.add_argument("action", choices=("setup", "remove"))
+    p.add_argument("rest", nargs="*", metavar="PASSPHRASE", help="setup: the new key's passphrase")
+    _link_options(p)
+    p.add_argument("--ack-timeout", type=float, default=6.0,
+                   help="seconds for the vehicle to confirm the change (default 6)")
     add_json(p)
 
     p = command(sub, "log", do_log, "record a tlog, or plot one")

@@ -7,9 +7,24 @@ becomes a ``LinkError`` (a ``CliError``) with one line saying what to check.
 
 Signing: ``--key PASSPHRASE`` derives the 32-byte key as MAVProxy's
 ``signing setup`` does (SHA-256 of the passphrase); we sign what we send and
-pymavlink refuses what the vehicle sends unsigned or badly signed. We send
-a GCS heartbeat before waiting for the vehicle's: a vehicle without a clock
-takes its signing timestamps from ours.
+pymavlink refuses what the vehicle sends unsigned or badly signed.
+
+Our signing clock follows the vehicle's (docs/design/signing.md): before our
+first frame we listen up to ``SYNC_S`` for a frame the vehicle signed with
+our key and sign from its timestamp. After a reset the vehicle's clock
+restarts up to two minutes ahead of the wall clock, and the twin's starts
+years behind it; stamped with the wall clock, our first frames would be
+refused (too old for a new stream, or far-future) and counted as attacks.
+pymavlink itself only moves its clock up, and only on frames whose
+timestamps it takes (a new stream more than a minute older than its clock
+is refused), so we read the timestamp ourselves: signature checked with our
+key, timestamp taken as it is. A vehicle whose clock was never set (under
+2**24 units) takes ours instead; when nothing signed with our key comes
+within ``SYNC_S`` we send anyway (wrong key, no key on the vehicle). After
+``RESYNC_AFTER_S`` without a frame signed with our key (the vehicle went
+silent: it may have restarted) we listen again before the next frame.
+``change_key`` sends SETUP_SIGNING (``roboray-ground signing setup`` and
+``signing remove``) and confirms it took.
 """
 
 from __future__ import annotations
@@ -33,6 +48,13 @@ DEFAULT_BAUD = 57600
 #: Our component id: a ground control station (MAV_COMP_ID_MISSIONPLANNER).
 GCS_COMPONENT = 190
 
+#: Before our first frame, listen this long (s) for the vehicle's signing clock.
+SYNC_S = 1.5
+#: Without a frame signed with our key for this long (s), listen again first.
+RESYNC_AFTER_S = 3.0
+_UNIX_2015 = 1420070400     # signing timestamps count 10 us units from 2015-01-01 UTC
+_CLOCK_SET = 1 << 24        # a vehicle clock below this (168 s past 2015) was never set
+
 RESULTS = {
     0: "accepted", 1: "temporarily rejected", 2: "denied", 3: "unsupported",
     4: "failed", 5: "in progress", 6: "cancelled",
@@ -55,6 +77,25 @@ def read_key_file(path: str) -> str:
     if not line:
         raise LinkError("key file %s is empty: put the signing passphrase on its first line" % path)
     return line
+
+
+def signing_now() -> int:
+    """The wall clock as a signing timestamp: 10 us units since 2015-01-01 UTC."""
+    return int((max(time.time(), _UNIX_2015) - _UNIX_2015) * 100000)
+
+
+def signed_timestamp(frame: bytes, key: bytes) -> Optional[int]:
+    """The timestamp of a MAVLink 2 ``frame`` signed with ``key``; None when it
+    is not signed or its signature does not match (the timestamp unjudged)."""
+    if len(frame) < 25 or frame[0] != 0xFD or not frame[2] & 1:
+        return None
+    if hashlib.sha256(key + bytes(frame[:-6])).digest()[:6] != bytes(frame[-6:]):
+        return None
+    return int.from_bytes(bytes(frame[-12:-6]), "little")
+
+
+def _signed(frame: bytes) -> bool:
+    return len(frame) > 2 and frame[0] == 0xFD and bool(frame[2] & 1)
 
 
 def _is_serial(master: str) -> bool:
@@ -97,6 +138,9 @@ class Link:
         from pymavlink import mavutil
 
         mavutil.set_dialect("common")
+        if not log.isEnabledFor(logging.DEBUG):
+            # pymavlink tells every signed stream it meets at INFO ("new stream"): not for the user
+            logging.getLogger("pymavlink").setLevel(logging.WARNING)
         self.master = master
         self.baud = baud
         if _is_serial(master) and "," in master:
@@ -116,15 +160,113 @@ class Link:
             raise _open_error(master, exc) from exc
         self.mav = self.conn.mav
         self.mav.robust_parsing = True
-        self.key = key
-        if key is not None:
-            self.conn.setup_signing(key, sign_outgoing=True)
+        self.key: Optional[bytes] = None
+        self.set_key(key)
         self.target_system = 1
         self.target_component = 1
         self.texts: list[str] = []
         self.vehicle_heartbeat: Any = None
         self.on_message: Optional[Callable[[Any], None]] = None
         self._last_gcs_hb = 0.0
+
+    # ----------------------------------------------------------- signing
+    def set_key(self, key: Optional[bytes], timestamp: Optional[int] = None) -> None:
+        """Sign with ``key`` from now on (None: unsigned), our clock at least
+        ``timestamp``; we listen for the vehicle's clock again before sending."""
+        sg = self.mav.signing
+        self.key = key
+        if key is None:
+            sg.secret_key = None
+            sg.sign_outgoing = False
+        else:
+            link_id = sg.link_id if sg.secret_key is not None else None   # the same link id on a new key
+            self.conn.setup_signing(key, sign_outgoing=True, link_id=link_id)
+            if timestamp is not None:
+                sg.timestamp = max(sg.timestamp, timestamp)
+        self._synced = key is None
+        self._sync_end: Optional[float] = None
+        self._heard = 0.0
+
+    def _note_clock(self, m: Any) -> None:
+        """Follow the vehicle's signing clock (see the module docstring)."""
+        ts = signed_timestamp(m.get_msgbuf(), self.key)   # type: ignore[arg-type]
+        if ts is None:
+            return
+        self._heard = time.monotonic()
+        if not self._synced:
+            self._synced = True
+            if ts >= _CLOCK_SET:
+                sg = self.mav.signing
+                sg.timestamp = ts + 1
+                log.debug("signing clock from the vehicle's: %d", ts)
+
+    def may_send(self) -> bool:
+        """Whether our clock follows the vehicle's (or we waited ``SYNC_S`` for it)."""
+        if self.key is None:
+            return True
+        now = time.monotonic()
+        if self._synced:
+            if now - self._heard <= RESYNC_AFTER_S:
+                return True
+            self._synced = False   # silent: it may have restarted with its clock ahead
+            self._sync_end = None
+        if self._sync_end is None:
+            self._sync_end = now + SYNC_S
+        return now >= self._sync_end
+
+    def ready(self) -> None:
+        """Wait (reading) until ``may_send``."""
+        while not self.may_send():
+            self.recv(0.05)
+
+    def vehicle_signs(self) -> bool:
+        """Whether the vehicle's last heartbeat came signed."""
+        hb = self.vehicle_heartbeat
+        return hb is not None and _signed(hb.get_msgbuf())
+
+    def change_key(self, key: Optional[bytes], timeout: float = 6.0, tries: int = 3) -> None:
+        """SETUP_SIGNING (MAVProxy's ``signing setup``/``remove``): the vehicle
+        signs with ``key`` from now on, None removes signing (an all-zero key).
+
+        Sent signed with our current key (unsigned when we have none), with
+        our wall clock as ``initial_timestamp``; then we take the new key and
+        confirm: a PARAM_REQUEST_READ of SYSID_THISMAV is answered signed
+        with the new key (pymavlink checks it), or, after a removal, an
+        unsigned one is answered unsigned (a vehicle with a key would refuse
+        it). Not confirmed, it is sent again with the old key. LinkError when
+        it never took. Call after ``wait_heartbeat``."""
+        old = self.key
+        hb = self.vehicle_heartbeat
+        if hb is not None and hb.base_mode & 128:   # MAV_MODE_FLAG_SAFETY_ARMED
+            raise LinkError("the vehicle is armed: it takes a signing change only disarmed (roboray-ground disarm)")
+        secret = list(key if key is not None else bytes(32))
+        per_try = timeout / tries
+        for attempt in range(tries):
+            if attempt:
+                self.set_key(old)
+            self.ready()
+            self.texts.clear()
+            now = signing_now()
+            self.mav.setup_signing_send(self.target_system, self.target_component, secret,
+                                        now if key is not None else 0)
+            self.set_key(key, now)
+            if self._confirm(key, time.monotonic() + per_try):
+                return
+        said = [t for t in self.texts if "signing" in t]
+        why = " (the vehicle said: %s)" % said[-1] if said else ""
+        raise LinkError("%s not confirmed: no answer %s from %s within %g s%s" % (
+            "signing setup" if key is not None else "signing remove",
+            "signed with the new key" if key is not None else "unsigned", self.describe(), timeout, why))
+
+    def _confirm(self, key: Optional[bytes], deadline: float) -> bool:
+        self.ready()
+        while time.monotonic() < deadline:
+            self.mav.param_request_read_send(self.target_system, self.target_component, b"SYSID_THISMAV", -1)
+            m = self.wait(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == "SYSID_THISMAV",
+                          min(0.5, max(0.01, deadline - time.monotonic())))
+            if m is not None and _signed(m.get_msgbuf()) == (key is not None):
+                return True
+        return False
 
     # ------------------------------------------------------------ basics
     def describe(self) -> str:
@@ -139,6 +281,8 @@ class Link:
     def heartbeat(self, force: bool = False) -> None:
         """Our GCS heartbeat, at most once a second unless forced."""
         now = time.monotonic()
+        if not self.may_send():
+            return
         if force or now - self._last_gcs_hb >= 1.0:
             self._last_gcs_hb = now
             self.mav.heartbeat_send(6, 8, 0, 0, 0)  # MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID
@@ -154,6 +298,8 @@ class Link:
             if type(exc).__name__ == "SerialException":
                 raise LinkError("lost %s: %s" % (self.describe(), exc)) from exc
             raise
+        if m is not None and self.key is not None:
+            self._note_clock(m)   # BAD_DATA too: pymavlink refuses a vehicle far behind its clock
         if m is None or m.get_type() == "BAD_DATA":
             return None
         if m.get_type() == "STATUSTEXT":
@@ -164,12 +310,15 @@ class Link:
 
     def wait_heartbeat(self, timeout: float = 5.0) -> Any:
         """The vehicle's heartbeat; sets the target ids. LinkError after ``timeout``."""
-        self.heartbeat(force=True)
-        # ask for a heartbeat now rather than wait up to a second for the next one
-        self.mav.command_long_send(0, 0, 512, 0, 0, 0, 0, 0, 0, 0, 0)  # MAV_CMD_REQUEST_MESSAGE, HEARTBEAT
         end = time.monotonic() + timeout
+        asked = False
         while time.monotonic() < end:
-            m = self.recv(min(0.5, max(0.01, end - time.monotonic())))
+            if not asked and self.may_send():
+                asked = True
+                self.heartbeat(force=True)
+                # ask for a heartbeat now rather than wait up to a second for the next one
+                self.mav.command_long_send(0, 0, 512, 0, 0, 0, 0, 0, 0, 0, 0)  # MAV_CMD_REQUEST_MESSAGE
+            m = self.recv(min(0.5 if asked else 0.05, max(0.01, end - time.monotonic())))
             if m is not None and m.get_type() == "HEARTBEAT" and m.type != 6:
                 self.target_system = m.get_srcSystem()
                 self.target_component = m.get_srcComponent()
@@ -196,6 +345,7 @@ class Link:
                 retries: int = 3, name: str = "command") -> Any:
         """Send COMMAND_LONG until its COMMAND_ACK; LinkError when refused or silent."""
         p = list(params) + [0.0] * (7 - len(params))
+        self.ready()
         self.texts.clear()
         for attempt in range(retries):
             self.mav.command_long_send(self.target_system, self.target_component, command, attempt, *p)
@@ -220,6 +370,7 @@ class Link:
     # -------------------------------------------------------- parameters
     def param_list(self, timeout: float = 10.0) -> dict[str, tuple[float, int]]:
         """Every parameter as name -> (value, MAV_PARAM_TYPE); missing ones re-read by index."""
+        self.ready()
         self.mav.param_request_list_send(self.target_system, self.target_component)
         got: dict[int, tuple[str, float, int]] = {}
         count = -1
@@ -245,12 +396,19 @@ class Link:
         return {name: (value, ptype) for name, value, ptype in (got[i] for i in sorted(got))}
 
     def param_get(self, name: str, timeout: float = 3.0) -> tuple[float, int]:
+        self.ready()
         for _ in range(3):
             self.mav.param_request_read_send(self.target_system, self.target_component, name.encode(), -1)
             m = self.wait(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout / 3)
             if m is not None:
                 return m.param_value, m.param_type
-        raise LinkError("no parameter %s on the vehicle (no answer within %g s)" % (name, timeout))
+        raise LinkError("no parameter %s on the vehicle (no answer within %g s)%s" % (name, timeout, self._unkeyed()))
+
+    def _unkeyed(self) -> str:
+        """Why a signing vehicle may ignore us: we have no key."""
+        if self.key is None and self.vehicle_signs():
+            return ": the vehicle signs its frames and refuses ours without its key (--key)"
+        return ""
 
     def param_set(self, name: str, value: float, ptype: Optional[int] = None, timeout: float = 3.0) -> float:
         """Set and wait for the echo; LinkError with the vehicle's reason when refused."""
@@ -258,6 +416,7 @@ class Link:
             _, ptype = self.param_get(name)
         if not math.isfinite(value):
             raise LinkError("%s: %r is not a finite number" % (name, value))
+        self.ready()
         self.texts.clear()
         for _ in range(3):
             self.mav.param_set_send(self.target_system, self.target_component, name.encode(), value, ptype)

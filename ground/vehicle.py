@@ -14,6 +14,14 @@ show; it is a demonstration, not a simulation. The main loop's figures are
 scripted too, as the firmware's scheduler would report them: a load of
 43.1 % and a worst slot of 6.8 ms held still, wandering around those with
 ``animate``.
+
+Signing is the firmware's: the key and the signing clock live in
+``/signing.bin`` on the interpreter's file system, a ``FlashRecord`` kept by
+``firmware/link.py``'s ``SigningKeeper`` (loaded at boot with the clock past
+the saved one, saved at SETUP_SIGNING, at disarm and as the clock runs).
+``restart()`` is a reset of the board: a new interpreter, the same
+pseudo-terminal, the signing record carried across (the only thing kept:
+parameters and modes start from their defaults).
 """
 
 from __future__ import annotations
@@ -34,6 +42,8 @@ from roboray.shared.params import ParamTable
 from roboray.shared.mavlink.endpoint import Endpoint
 from roboray.shared.mavlink.telemetry import Telemetry
 from roboray.shared.mavlink.signing import Signing
+from roboray.firmware.flash_record import FlashRecord
+from roboray.firmware.link import SigningKeeper
 
 class HostlinkTransport:
     # the firmware's radio driver offers the same two methods
@@ -61,8 +71,13 @@ __tel = Telemetry()
 __tel.battery[0] = 7.9
 __tel.battery[1] = 0.4
 __tel.battery[2] = 0.93
-__signing = Signing(%(key)s)
+__signing = Signing()
+__keeper = SigningKeeper(__signing, FlashRecord('/signing.bin'))
+if not __keeper.load() and %(key)s is not None:
+    __signing.set_key(%(key)s)
+    __keeper.save()
 __ep = Endpoint(HostlinkTransport(), __params, __modes, __tel, __signing)
+__ep.on_setup_signing = __keeper.save
 __tel.load_permille = 431
 
 def __loop_figures(t):
@@ -104,6 +119,7 @@ def __serve(animate):
         elif __ep.slot_max_us < 6800:
             __ep.slot_max_us = 6800
         __ep.update(now)
+        __keeper.service(now, __modes.armed)
         if __ep.reboot_requested:
             __ep.reboot_requested = False
             hostlink.request('reboot')
@@ -125,7 +141,13 @@ class PtyVehicle:
         Move the telemetry (demonstration) instead of holding it still.
     tick_s:
         How long the vehicle loop waits for radio bytes between updates.
+
+    ``key`` is put on the vehicle's flash as SETUP_SIGNING would, with its
+    clock never set (it takes the first signed frame's time).
     """
+
+    #: The signing record's files on the vehicle's flash (FlashRecord's three).
+    RECORD_FILES = ("/signing.bin", "/signing.bin.tmp", "/signing.bin.bak")
 
     def __init__(self, key: Optional[bytes] = None, sysid: int = 1, animate: bool = False,
                  tick_s: float = 0.01) -> None:
@@ -136,14 +158,46 @@ class PtyVehicle:
         #: What the ground station opens, like /dev/ttyUSB0.
         self.device = os.ttyname(self._slave)
         self.tick_s = tick_s
-        self.reboots = 0
+        self.reboots = 0    # reboots the vehicle was asked for (PREFLIGHT_REBOOT_SHUTDOWN)
+        self.restarts = 0   # restart() calls
         self.error: Optional[BaseException] = None
         self._stop = threading.Event()
-        self._mp = MicroPython(on_request=self._on_request)
-        self._mp.install_board_code()
-        self._mp.exec(_BOARD % {"sysid": sysid, "key": "None" if key is None else repr(bytes(key))})
+        self._sysid = sysid
         self._animate = animate
+        self._mp = self._boot({}, key)
         self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def _boot(self, files: dict, key: Optional[bytes] = None) -> MicroPython:
+        mp = MicroPython(on_request=self._on_request)
+        try:
+            mp.install_board_code()
+            for path, data in files.items():
+                mp.write_file(path, data)
+            mp.exec(_BOARD % {"sysid": self._sysid, "key": "None" if key is None else repr(bytes(key))})
+        except BaseException:
+            mp.close()
+            raise
+        return mp
+
+    def record(self) -> dict:
+        """The signing record's files on the vehicle's flash, path -> bytes
+        (use only while the vehicle is stopped)."""
+        files = {}
+        for path in self.RECORD_FILES:
+            if self._mp.eval("__keeper.record.fs.exists(%r)" % path):
+                files[path] = self._mp.read_file(path)
+        return files
+
+    def restart(self) -> None:
+        """Reset the board, as a watchdog would: the loop stops where it is
+        (nothing saved at the end), a new interpreter boots from the same
+        flash (the signing record) behind the same pseudo-terminal."""
+        self.stop()
+        files = self.record()
+        self._mp.close()
+        self._mp = self._boot(files)
+        self.restarts += 1
+        self.resume()
 
     @property
     def interpreter(self) -> MicroPython:

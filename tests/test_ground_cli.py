@@ -115,6 +115,52 @@ def test_signed_vehicle_obeys_only_the_key(signed_vehicle, tmp_path):
     assert json.loads(r.stdout)["armed"] is True  # still armed: the unsigned disarm did nothing
 
 
+def test_attacks_on_the_demo_vehicle_then_the_legitimate_ground_across_a_restart():
+    # the sequence of tests/test_signing_twin.py; the restart carries the signing record over
+    import test_signing_twin as st
+
+    with PtyVehicle(key=key_from_passphrase(st.PASSPHRASE)) as v:
+        seen = st.attack(v.device, v.restart)
+        assert v.restarts == 1 and seen["before"] == (2, 2) and seen["after_restart"] == (0, 0)
+
+
+def test_signing_setup_then_only_that_key_then_signing_remove():
+    with PtyVehicle() as v:
+        d = v.device
+        r = ground("signing", "setup", "--master", d)
+        assert r.returncode == 2 and "usage: signing setup PASSPHRASE" in r.stderr
+        r = ground("signing", "setup", "kelp forest", "--master", d)
+        assert r.returncode == 0, r.stderr
+        assert r.stdout.strip() == "signing key set on vehicle 1: it now obeys only frames signed with it (give it with --key)"
+        assert r.stderr == ""
+        # unsigned and wrong key: ignored; with the key: obeyed
+        r = ground("arm", "--master", d, "--ack-timeout", "1")
+        assert r.returncode == 1 and "may require signing (--key)" in r.stderr, r.stderr
+        r = ground("arm", "--master", d, "--key", "kelp", "--timeout", "1")
+        assert r.returncode == 1 and "same signing key" in r.stderr, r.stderr
+        r = ground("signing", "setup", "mine now", "--master", d)   # without the current key: refused here
+        assert r.returncode == 1 and "it has a key; give the current one with --key" in r.stderr, r.stderr
+        r = ground("arm", "--master", d, "--key", "kelp forest")
+        assert (r.returncode, r.stdout.strip()) == (0, "armed"), r.stderr
+        r = ground("signing", "remove", "--master", d, "--key", "kelp forest")
+        assert r.returncode == 1 and "armed" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+        r = ground("disarm", "--master", d, "--key", "kelp forest")
+        assert r.returncode == 0, r.stderr
+        # the key survives a restart; then removed (signed with it), which survives a restart too
+        v.restart()
+        r = ground("param", "get", "SYSID_THISMAV", "--master", d)
+        assert r.returncode == 1 and "refuses ours without its key (--key)" in r.stderr, r.stderr
+        r = ground("signing", "remove", "--master", d, "--key", "kelp forest", "--json")
+        assert r.returncode == 0 and json.loads(r.stdout) == {"signing": "off", "system": 1, "changed": True}, r.stderr
+        v.restart()
+        r = ground("arm", "--master", d)
+        assert (r.returncode, r.stdout.strip()) == (0, "armed"), r.stderr
+        r = ground("disarm", "--master", d)
+        assert r.returncode == 0, r.stderr
+        r = ground("signing", "remove", "--master", d)
+        assert (r.returncode, r.stdout.strip()) == (0, "vehicle 1 has no signing key: nothing to remove")
+
+
 def test_missing_port_busy_port_and_silent_port():
     r = ground("arm", "--master", "/dev/ttyNOPE0")
     assert r.returncode == 1
