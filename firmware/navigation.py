@@ -197,6 +197,7 @@ class Navigation:
         self.depth_rejected_run = 0
         self._rejects_seen = 0
         self._used_seen = 0
+        self._running = False
         self._fed = False
 
     def configure_compass(self):
@@ -220,6 +221,14 @@ class Navigation:
         # arithmetic on MicroPython.
         imu = self.imu
         b = self.body
+        if not self._running:
+            # the first step: what the IMU batched while the board was set
+            # up (tens of ms) is old, and reading it would cost this slot
+            # ~4 ms of I2C; the estimator starts from the next sample
+            self._running = True
+            imu.discard()
+            est.check(t)
+            return
         if imu.read():
             r = imu.sums
             n = r[4]

@@ -163,3 +163,20 @@ def test_periods_whose_common_multiple_is_too_long_are_refused(mp):
     mp.exec("s = Scheduler(vclock, 10)\ns.add('a', nothing, 70)\ns.add('b', nothing, 130)")
     with pytest.raises(Exception, match="repeat only every 1729 slots"):
         mp.exec("s.add('c', nothing, 190)")
+
+
+def test_a_planned_stall_resumes_on_the_grid_with_a_slot_of_the_every_slot_tasks(mp):
+    # slot 5 announces and takes a 35 ms stall: counted as a stall, not an
+    # overrun; slots 6, 7 and 8 (the one it ended in) are skipped and the
+    # loop resumes on its grid at slot 9 (90 ms), which runs only the tasks
+    # due every slot: the 20 ms task due then waits for its next turn (110 ms)
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "def sometimes():\n"
+            "    if s.slot == 5:\n"
+            "        s.expect_delay_ms(50)\n"
+            "        vclock.advance(35000)\n"
+            "s.add('work', sometimes, 10)\ns.add('every20', stamp, 20, phase=1)\n"
+            "s.run(12)")
+    assert mp.eval("[s.overruns, s.stalls, s.skipped, s.deferred]") == [0, 1, 3, 1]
+    assert mp.eval("s.slot") == 15
+    assert mp.eval("stamps()") == [10, 30, 85, 110, 130]

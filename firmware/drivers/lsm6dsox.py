@@ -90,11 +90,13 @@ _TAG_GYRO = const(0x01)
 _TAG_ACCEL = const(0x02)
 _TAG_TEMP = const(0x03)
 
-#: Words one read takes at most (7 bytes each): 150 ms of both sensors at
-#: 104 Hz, the longest planned stall (a parameter save's budget; a
-#: collection is 42 ms). A longer backlog is emptied (``ERR_OVERFLOW``) and
-#: the estimator coasts over the gap.
-MAX_WORDS = const(34)
+#: Words one read takes at most (7 bytes each): 77 ms of both sensors at
+#: 104 Hz, a collection's stall (33-40 ms) and the slot around it with
+#: room. Reading costs the I2C bus 22.5 us a byte at 400 kHz: the 30 words
+#: a 150 ms flash save leaves took 10 ms, a slot on their own (an overrun
+#: on the emulated Pico 2). A longer backlog is emptied (``ERR_OVERFLOW``)
+#: and the estimator coasts over the gap, as over a silent IMU.
+MAX_WORDS = const(16)
 #: A read that finds nothing new this long after the last sample is stale
 #: (2.4 batch periods: one read finding nothing is the loop's 100 Hz
 #: running behind the chip's 104 Hz, not a fault).
@@ -163,6 +165,14 @@ class LSM6DSOX(Registers):
             if got != value:
                 raise self._fail("register 0x%02X reads 0x%02X after writing 0x%02X" % (reg, got, value))
 
+    def discard(self):
+        """Empty the FIFO (bypass, then continuous again): before the loop
+        starts, whatever was batched while the rest of the board was set up
+        is old, and one read of it would cost the first slot its time."""
+        self._write_reg(_FIFO_CTRL4, _FIFO_BYPASS)
+        self._write_reg(_FIFO_CTRL4, _FIFO_CONTINUOUS)
+        self._carry = False
+
     def read(self):
         """Scheduler task: the samples batched since the last read. True when
         both sensors gave at least one and they were sound (``sums``)."""
@@ -178,11 +188,9 @@ class LSM6DSOX(Registers):
                 self._recover()
                 return False
             if s2 & _LOST or n > MAX_WORDS:
-                # samples are gone: empty the FIFO (bypass, then continuous
-                # again) and start afresh; the estimator coasts over the gap
-                self._write_reg(_FIFO_CTRL4, _FIFO_BYPASS)
-                self._write_reg(_FIFO_CTRL4, _FIFO_CONTINUOUS)
-                self._carry = False
+                # samples are gone: empty the FIFO and start afresh; the
+                # estimator coasts over the gap
+                self.discard()
                 health.bad(ERR_OVERFLOW)
                 self._recover()
                 return False

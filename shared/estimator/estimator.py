@@ -68,6 +68,9 @@ _DYNAMIC_ERROR = 0.5
 #: A step longer than this since the last IMU sample is a stall's backlog
 #: (the nav loop's period is 10 ms).
 _GAP_US = const(25000)
+#: An IMU outage longer than this ends with the attitude levelled again
+#: from gravity (``Attitude.relevel``); a shorter one keeps it.
+_RELEVEL_US = const(1000000)
 #: A pressure older than this when its turn comes is not fused: the MS5837
 #: dates a sample at the middle of its conversion, ~8 ms before it is read
 #: in a steady loop; ~40 ms after a collection's stall.
@@ -226,6 +229,7 @@ class Estimator:
         self._t_imu = 0
         self._t_imu_seen = 0
         self._imu_lost = False
+        self._t_lost = 0
         self._t_start = 0
         self._t_servo = 0
         self._servo_seen = False
@@ -367,6 +371,11 @@ class Estimator:
         self._t_imu = t_us
         self._t_imu_seen = t_us
         att = self.att
+        if self._imu_lost and ((t_us - self._t_lost + _HALF) & _TMAX) - _HALF < _RELEVEL_US:
+            # back within a second (a flash save's stall emptied the FIFO):
+            # the attitude held meanwhile is still good, the gyro's
+            # integration picks up where it stopped
+            self._imu_lost = False
         if self._imu_lost:
             # the first sample after coasting without the IMU: the attitude
             # held meanwhile is stale (the vehicle turned, its failsafe
@@ -465,6 +474,8 @@ class Estimator:
         vert.propagate(self._t_imu)
         vert.coast(t_us)
         self.att.accel_used = False
+        if not self._imu_lost:
+            self._t_lost = self._t_imu_seen
         self._imu_lost = True
         self._t_imu = t_us
         if n <= _MAX_GAP_US:

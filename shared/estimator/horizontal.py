@@ -83,8 +83,12 @@ class Horizontal:
         self._var0 = (pos_var0, bias_var0)
         self._n = history
         self._t = array("i", [0] * history)
-        self._pn = [0.0] * history
-        self._pe = [0.0] * history
+        # the predicted track, as float32 arrays: a list of 64 boxed floats
+        # is 64 heap objects the collector must push at once, which
+        # overflowed its 64-entry mark stack on the board and cost every
+        # collection a second walk of the whole heap
+        self._pn = array("f", [0.0] * history)
+        self._pe = array("f", [0.0] * history)
         self._head = 0
         self._count = 0
         #: Sum of the corrections applied so far (north, east), m.
