@@ -345,29 +345,7 @@ class Estimator:
         if n <= 0:
             return
         # one job at the state of the previous step, whose tick is _t_imu
-        self._steps += 1
-        p = self._pending
-        if p & _PEND_FIX:
-            self._pending = p & ~_PEND_FIX
-            self.job = JOB_FIX
-            self._fuse_fix()
-        elif p & _PEND_DEPTH:
-            self._pending = p & ~_PEND_DEPTH
-            self.job = JOB_DEPTH
-            self._fuse_depth()
-        elif self._steps >= _HOUSEKEEPING_STEPS:
-            self._steps = 0
-            self.job = JOB_HOUSEKEEPING
-            self._housekeeping()
-        elif p:
-            if self._mag_wait and ((self._t_m - self._t_mag_job + _HALF) & _TMAX) < self._lim_mag_period:
-                self.job = JOB_NONE    # one was fused less than a period ago: the newest waits
-            else:
-                self._pending = 0
-                self.job = JOB_MAG
-                self._fuse_mag()
-        else:
-            self.job = JOB_NONE
+        self._job(True)
         self._t_imu = t_us
         self._t_imu_seen = t_us
         att = self.att
@@ -443,17 +421,10 @@ class Estimator:
         self._health(t_us)
         self._outputs()
 
-    def _coast(self, t_us):
-        """The IMU is silent (or its samples were refused): move the state to
-        ``t_us`` without it. The attitude holds; the vertical filter goes on
-        at its speed, its covariance growing with the accelerations the
-        vehicle could have had meanwhile (``Vertical.coast``), so the
-        pressures that arrive pass its gate and steer it; the horizontal
-        filter follows the descent model. One pending job first, as a step
-        does (the magnetometer waits for the IMU: it needs the attitude)."""
-        n = ((t_us - self._t_imu + _HALF) & _TMAX) - _HALF
-        if n <= 0:
-            return
+    def _job(self, mag):
+        """At most one pending job a step (``Estimator.job`` says which):
+        a fix, a pressure, housekeeping, then (``mag``: not while coasting,
+        it needs the attitude the IMU keeps) the magnetometer."""
         self._steps += 1
         p = self._pending
         if p & _PEND_FIX:
@@ -468,8 +439,28 @@ class Estimator:
             self._steps = 0
             self.job = JOB_HOUSEKEEPING
             self._housekeeping()
+        elif p and mag:
+            if self._mag_wait and ((self._t_m - self._t_mag_job + _HALF) & _TMAX) < self._lim_mag_period:
+                self.job = JOB_NONE    # one was fused less than a period ago: the newest waits
+            else:
+                self._pending = 0
+                self.job = JOB_MAG
+                self._fuse_mag()
         else:
             self.job = JOB_NONE
+
+    def _coast(self, t_us):
+        """The IMU is silent (or its samples were refused): move the state to
+        ``t_us`` without it. The attitude holds; the vertical filter goes on
+        at its speed, its covariance growing with the accelerations the
+        vehicle could have had meanwhile (``Vertical.coast``), so the
+        pressures that arrive pass its gate and steer it; the horizontal
+        filter follows the descent model. One pending job first, as a step
+        does (the magnetometer waits for the IMU: it needs the attitude)."""
+        n = ((t_us - self._t_imu + _HALF) & _TMAX) - _HALF
+        if n <= 0:
+            return
+        self._job(False)
         vert = self.vert
         vert.propagate(self._t_imu)
         vert.coast(t_us)
