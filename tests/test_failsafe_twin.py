@@ -187,3 +187,15 @@ def test_operator_actions_reach_the_firmware():
                       Action(4.0, "param_read", ("SR_STATUS",))], duration=6.0)
     results = {a["action"]: a["result"] for a in r["operator"]}
     assert results["param"] == "7" and results["param_read"] == "1"
+
+
+def test_an_imu_that_sticks_and_recovers_raises_only_its_own_failsafe():
+    # Issue 16: the estimator held the frozen IMU's attitude through the
+    # failsafe's wing fold; when the IMU came back, gravity leaking through
+    # the stale tilt made ~0.9 m/s^2 of false vertical acceleration, the
+    # depth gate refused good pressures and the depth failsafe latched.
+    # Now the estimator coasts without its IMU and levels again from
+    # gravity when it returns: the depth sensor is not blamed.
+    r = fly("imu-stick@13", "imu-ok@16")
+    assert names(r) == ["IMU"]
+    assert not reported(r, F.DEPTH) and not reported(r, F.EKF) and r["landed"]

@@ -334,10 +334,13 @@ def test_the_firmware_starts_with_its_clear_error_without_hardware(board):
 
 # --------------------------------------------------------------- errors
 def test_a_missing_port_is_a_one_line_error(committed_src, tmp_path):
-    proc = flash("deploy", "--port", "/dev/no-such-board", "--src", str(committed_src), "--out", str(tmp_path / "out"))
+    out = tmp_path / "missing" / "x" / "y"
+    proc = flash("deploy", "--port", "/dev/no-such-board", "--src", str(committed_src), "--out", str(out))
     assert proc.returncode == 1
     assert proc.stderr.strip().splitlines()[-1] == (
         "roboray-flash: error: no such port: /dev/no-such-board (is the board plugged in? --port auto finds it)")
+    # said before anything was built: nothing written where --out pointed
+    assert not (tmp_path / "missing").exists()
 
 
 def test_a_busy_port_is_a_one_line_error(board):

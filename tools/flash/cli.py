@@ -48,8 +48,10 @@ def do_deploy(args: argparse.Namespace) -> None:
     from .deploy import deploy
     from .romfs import RomfsUnavailable, deploy_romfs
 
-    result = _build(args)
+    # the board first: a port that is not there is said before anything
+    # is built or written (the build folder included)
     with _board(args) as board:
+        result = _build(args)
         report = None
         why = None
         if args.target in ("auto", "romfs"):
