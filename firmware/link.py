@@ -221,6 +221,11 @@ class Link:
         self.ep = VehicleEndpoint(radio, params, modes, telemetry, self.signing, on_fix=self._on_fix,
                                   on_refresh=reporter.refresh)
         self.ep.on_setup_signing = self.keeper.save
+        try:    # AUTOPILOT_VERSION says which build this is
+            from roboray.firmware import build_info
+            self.ep.set_version(build_info.VERSION, build_info.REVISION)
+        except (ImportError, AttributeError):
+            pass    # no build wrote it (CPython, the test interpreter): unknown
 
     def _on_fix(self, fix):
         self.nav.fix(fix[0], fix[1])

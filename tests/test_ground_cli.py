@@ -43,7 +43,7 @@ def test_arm_mode_disarm(vehicle):
     assert (r.returncode, r.stdout.strip()) == (0, "mode VELOCITY")
     r = ground("mode", "target", "--master", vehicle.device)  # no target yet
     assert r.returncode == 1
-    assert r.stderr.strip() == "roboray-ground: error: mode TARGET refused: no target set (temporarily rejected)"
+    assert r.stderr.strip() == "roboray-ground: error: mode TARGET refused: no target set (failed)"
     r = ground("target", "2", "-1.5", "--master", vehicle.device, "--json")
     assert r.returncode == 0 and json.loads(r.stdout) == {"command": "target", "result": "accepted"}
     r = ground("mode", "TARGET", "--master", vehicle.device)

@@ -275,7 +275,7 @@ def test_commands_are_acknowledged_with_reasons():
     g.mav.command_long_send(1, 1, pm.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     msgs = exchange(g, v)
     ack = acks(msgs)[0]
-    assert ack.result == pm.MAV_RESULT_TEMPORARILY_REJECTED and M.REASONS[ack.result_param2] == M.LEAK
+    assert ack.result == pm.MAV_RESULT_FAILED and M.REASONS[ack.result_param2] == M.LEAK
     assert ack.target_system == 255 and ack.target_component == 190
     assert "leak detected" in [m.text for m in msgs if m.get_type() == "STATUSTEXT"]
     checks.leak = False
@@ -291,7 +291,7 @@ def test_commands_are_acknowledged_with_reasons():
     assert acks(exchange(g, v))[0].result == pm.MAV_RESULT_DENIED  # no CUSTOM_MODE_ENABLED
     # reboot refused while armed, accepted when disarmed
     g.mav.command_long_send(1, 1, pm.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
-    assert acks(exchange(g, v))[0].result == pm.MAV_RESULT_TEMPORARILY_REJECTED and not v.ep.reboot_requested
+    assert acks(exchange(g, v))[0].result == pm.MAV_RESULT_FAILED and not v.ep.reboot_requested
     g.mav.command_long_send(1, 1, pm.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0)
     g.mav.command_long_send(1, 1, pm.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
     assert [a.result for a in acks(exchange(g, v))] == [pm.MAV_RESULT_ACCEPTED] * 2 and v.ep.reboot_requested

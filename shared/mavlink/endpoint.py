@@ -22,6 +22,14 @@ Handled:
   SET_MESSAGE_INTERVAL (sets the matching ``SR_*`` rate), REQUEST_MESSAGE
   (the heartbeat or a telemetry stream, now). A refusal's reason
   is ``modes.REASONS.index(reason)`` in ``result_param2`` and a STATUSTEXT;
+- the handshake a ground station opens with (docs/design/handshake.md):
+  COMMAND_INT (as COMMAND_LONG; DO_REPOSITION in MAV_FRAME_LOCAL_NED only),
+  SET_MODE (acknowledged with command 11, as ArduPilot), REQUEST_DATA_STREAM
+  (ArduPilot's stream groups onto the ``SR_*`` rates), AUTOPILOT_VERSION
+  (REQUEST_MESSAGE 148, REQUEST_AUTOPILOT_CAPABILITIES; ``set_version``) and
+  HOME_POSITION, the release point (GET_HOME_POSITION, REQUEST_MESSAGE
+  242); COMMAND_ACK results are ArduPilot's (a refusal FAILED, arming an
+  armed vehicle ACCEPTED); a STATUSTEXT over 50 bytes goes in chunks;
 - SET_POSITION_TARGET_LOCAL_NED (position bits) sets the target too;
 - ATT_POS_MOCAP: the position fix goes into ``fix`` ([x, y, z, qw, qx,
   qy, qz], m and NED), ``fix_time_us`` and ``fix_count`` for the estimator,
@@ -140,6 +148,23 @@ _REASON_SIGNING_ARMED = "signing setup refused: disarm first"
 _REASON_REBOOT_ARMED = "reboot refused: disarm first"
 _REASON_BAD_MODE_FLAGS = "DO_SET_MODE needs MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"
 _REASON_BAD_TARGET = "target needs finite coordinates"
+_REASON_BAD_FRAME = "DO_REPOSITION needs MAV_FRAME_LOCAL_NED (no global position)"
+
+#: AUTOPILOT_VERSION's capabilities: what the vehicle does (no mission protocol).
+CAPABILITIES = (msg.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | msg.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                | msg.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                | msg.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED)
+# AUTOPILOT_VERSION up to product_id (messages.AUTOPILOT_VERSION_FMT's head),
+# then flight_custom_version's 8 bytes at _VERSION_HASH
+_VERSION_HEAD = "<QQIIIIHH"
+_VERSION_HASH = const(36)
+_TEXT_LEN = const(50)             # STATUSTEXT text bytes
+_INT32_MAX = const(0x7FFFFFFF)
+_NAN = float("nan")
+# REQUEST_DATA_STREAM: ArduPilot's stream groups (MAV_DATA_STREAM id) -> our
+# stream number + 1 (0: none here). RAW_SENSORS: sensors; EXTENDED_STATUS:
+# status; RC_CHANNELS: servo; POSITION: position; EXTRA1: attitude; EXTRA3: battery.
+_DATA_STREAMS = b"\x00\x03\x06\x04\x00\x00\x02\x00\x00\x00\x01\x00\x05"
 
 
 def ticks_diff(a, b):
@@ -282,6 +307,11 @@ class Endpoint:
         self.on_setup_signing = None  # called after SETUP_SIGNING changed key or clock
         self.handled = 0
         self.commands = 0
+        self._text_id = 0             # the last chunked STATUSTEXT's id
+        #: AUTOPILOT_VERSION's flight_sw_version and flight_custom_version
+        #: (``set_version``; 0 and zeros: unknown)
+        self.sw_version = 0
+        self.sw_hash = bytes(8)
 
     # ------------------------------------------------------------- driving
     def update(self, now_ms):
@@ -506,6 +536,18 @@ class Endpoint:
             r[5] = pl[0] | (pl[1] << 8)
             r[6] = pl[2] | (pl[3] << 8)
             self.radio_count += 1
+        elif mid == msg.MSG_COMMAND_INT:
+            if self._for_us(pl[30], pl[31]):
+                self._command(p)
+        elif mid == msg.MSG_SET_MODE:
+            # (no target component: the system's autopilot answers, as ArduPilot's)
+            if pl[4] == self.sysid:
+                self.commands += 1
+                custom = pl[0] | (pl[1] << 8) | (pl[2] << 16) | (pl[3] << 24)
+                self._set_mode(p, msg.MSG_SET_MODE, pl[5], custom)
+        elif mid == msg.MSG_REQUEST_DATA_STREAM:
+            if self._for_us(pl[2], pl[3]):
+                self._data_stream(pl[4], pl[0] | (pl[1] << 8), pl[5])
 
     def _refused(self, p, s):
         """Count a frame signing refused; tell the first one each REFUSAL_TEXT_MS."""
@@ -578,27 +620,43 @@ class Endpoint:
 
     # ------------------------------------------------------------- commands
     def _command(self, p):
+        # COMMAND_LONG and COMMAND_INT share the layout of param1-4, param7 (z),
+        # the command and the target; COMMAND_INT's param5/6 are x/y (int32)
         self.commands += 1
         pl = p.payload
         cmd = pl[28] | (pl[29] << 8)
         if cmd == msg.MAV_CMD_COMPONENT_ARM_DISARM:
             arm, force = struct.unpack_from("<2f", pl, 0)
+            # ArduPilot's results: arming an armed vehicle (or disarming a
+            # disarmed one) is ACCEPTED, a refusal FAILED, another param1
+            # UNSUPPORTED. FAILSAFE reads as armed but is no arming's
+            # answer: refused there (the operator disarms first)
             if arm == 1.0:
+                if self.modes.armed and self.modes.mode != M.FAILSAFE:
+                    self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+                    return
                 result = self.modes.arm(force == _FORCE_MAGIC)
             elif arm == 0.0:
                 result = self.modes.disarm()
             else:
-                self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
+                self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
                 return
             self._ack_result(p, cmd, result)
         elif cmd == msg.MAV_CMD_DO_SET_MODE:
             base, custom = struct.unpack_from("<2f", pl, 0)
-            if not int(base) & msg.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-                self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_MODE_FLAGS)
-                return
-            self._ack_result(p, cmd, self.modes.request(int(custom)))
+            self._set_mode(p, cmd, int(base), int(custom))
         elif cmd == msg.MAV_CMD_DO_REPOSITION:
-            n, e, d = struct.unpack_from("<3f", pl, 16)
+            if p.msgid == msg.MSG_COMMAND_INT:
+                # x, y in metres x 1e4 (INT32_MAX: keep), z in metres, local frame only
+                if pl[32] != msg.MAV_FRAME_LOCAL_NED:
+                    self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_FRAME)
+                    return
+                x, y = struct.unpack_from("<2i", pl, 16)
+                n = _NAN if x == _INT32_MAX else x * 1e-4
+                e = _NAN if y == _INT32_MAX else y * 1e-4
+                d = struct.unpack_from("<f", pl, 24)[0]
+            else:
+                n, e, d = struct.unpack_from("<3f", pl, 16)
             t = self.t.target_ned
             if n != n:
                 n = t[0]
@@ -616,7 +674,7 @@ class Endpoint:
             if what != 1.0:
                 self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
             elif self.modes.armed:
-                self._refuse(p, cmd, msg.MAV_RESULT_TEMPORARILY_REJECTED, _REASON_REBOOT_ARMED)
+                self._refuse(p, cmd, msg.MAV_RESULT_FAILED, _REASON_REBOOT_ARMED)
             else:
                 self.reboot_requested = True
                 self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
@@ -631,6 +689,10 @@ class Endpoint:
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED if err == 0 else msg.MAV_RESULT_DENIED, err)
         elif cmd == msg.MAV_CMD_REQUEST_MESSAGE:
             mid = int(struct.unpack_from("<f", pl, 0)[0])
+            if mid == msg.MSG_AUTOPILOT_VERSION or mid == msg.MSG_HOME_POSITION:
+                self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+                self._send_once(mid)
+                return
             k = _stream_of(mid) if mid != msg.MSG_HEARTBEAT else -1
             if k < 0 and mid != msg.MSG_HEARTBEAT:
                 self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
@@ -642,8 +704,85 @@ class Endpoint:
             else:
                 self._send_stream(k)
             self._wake = self.now_ms
+        elif cmd == msg.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            if struct.unpack_from("<f", pl, 0)[0] != 1.0:
+                self._ack(p, cmd, msg.MAV_RESULT_FAILED, 0)   # (ArduPilot's answer)
+                return
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+            self._send_once(msg.MSG_AUTOPILOT_VERSION)
+        elif cmd == msg.MAV_CMD_GET_HOME_POSITION:
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+            self._send_once(msg.MSG_HOME_POSITION)
         else:
             self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
+
+    def _set_mode(self, p, cmd, base, custom):
+        """DO_SET_MODE or SET_MODE (``cmd`` 11, the id ArduPilot acknowledges it with)."""
+        if not base & msg.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_MODE_FLAGS)
+            return
+        self._ack_result(p, cmd, self.modes.request(custom))
+
+    def _data_stream(self, stream_id, rate, start_stop):
+        """REQUEST_DATA_STREAM: ArduPilot's stream groups onto our ``SR_*`` rates (no answer)."""
+        if start_stop > 1:
+            return
+        hz = float(rate) if start_stop else 0.0
+        if stream_id == msg.MAV_DATA_STREAM_ALL:
+            for k in range(_N_STREAMS):
+                self._set_rate(k, hz)
+            return
+        k = _DATA_STREAMS[stream_id] - 1 if stream_id < len(_DATA_STREAMS) else -1
+        if k >= 0:
+            self._set_rate(k, hz)
+
+    def _set_rate(self, k, hz):
+        """Stream ``k`` at ``hz``, or its parameter's limit when beyond it."""
+        params = self.params
+        i = self._p_rates[k]
+        if params.set(i, hz):
+            hi = params.maximum(i)
+            params.set(i, hi if hz > hi else params.minimum(i))
+
+    def _send_once(self, mid):
+        """AUTOPILOT_VERSION or HOME_POSITION, now (asked for)."""
+        w = self.writer
+        b = w.buf
+        o = w.payload
+        if mid == msg.MSG_AUTOPILOT_VERSION:
+            w.clear(msg.AUTOPILOT_VERSION_LEN)
+            struct.pack_into(_VERSION_HEAD, b, o, CAPABILITIES, 0, self.sw_version, 0, 0, 0, 0, 0)
+            b[o + _VERSION_HASH:o + _VERSION_HASH + 8] = self.sw_hash
+            self._send(msg.MSG_AUTOPILOT_VERSION)
+        else:
+            # the release point: the local frame's origin (no global position:
+            # latitude, longitude and altitude 0), attitude unrotated
+            struct.pack_into(msg.HOME_POSITION_FMT, b, o, 0, 0, 0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
+                             0.0, 0.0, 0.0, 0)
+            self._send(msg.MSG_HOME_POSITION)
+
+    def set_version(self, version, revision):
+        """AUTOPILOT_VERSION's from the build (``build_info.VERSION``, ``REVISION``):
+        ``flight_sw_version`` major, minor, patch and type (DEV for a dirty or
+        unknown revision, OFFICIAL for a clean commit) and the revision's
+        first 8 characters as ``flight_custom_version``."""
+        v = 0
+        shift = 24
+        for part in version.split(".")[:3]:
+            digits = ""
+            for c in part:
+                if "0" <= c <= "9":
+                    digits += c
+                else:
+                    break
+            v |= (int(digits) & 0xFF if digits else 0) << shift
+            shift -= 8
+        dev = revision == "unknown" or revision.endswith("-dirty") or not revision
+        self.sw_version = v | (msg.FIRMWARE_VERSION_TYPE_DEV if dev else msg.FIRMWARE_VERSION_TYPE_OFFICIAL)
+        h = bytearray(8)
+        r = revision.encode()[:8] if revision != "unknown" else b""
+        h[0:len(r)] = r
+        self.sw_hash = bytes(h)
 
     def _set_target(self, n, e, d):
         t = self.t
@@ -657,7 +796,7 @@ class Endpoint:
         if result[0]:
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
         else:
-            self._refuse(p, cmd, msg.MAV_RESULT_TEMPORARILY_REJECTED, result[1])
+            self._refuse(p, cmd, msg.MAV_RESULT_FAILED, result[1])   # (ArduPilot's: FAILED)
 
     def _refuse(self, p, cmd, mav_result, reason):
         code = M.REASONS.index(reason) if reason in M.REASONS else 255
@@ -670,12 +809,27 @@ class Endpoint:
         self._send(msg.MSG_COMMAND_ACK)
 
     def send_text(self, severity, text):
-        """STATUSTEXT (up to 50 bytes of UTF-8; longer text is cut)."""
+        """STATUSTEXT: up to 50 bytes of UTF-8 in one; a longer text in chunks of
+        50 as MAVLink 2 allows (one ``id``, ``chunk_seq`` 0, 1, ...; the last
+        chunk shorter than 50 bytes, an empty one after an exact multiple)."""
         # "50s" pads and cuts in C: indexing a str character by character is
         # O(i) on MicroPython (UTF-8), a 30-character text took ~6 ms so
         w = self.writer
-        struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, text.encode(), 0, 0)
-        self._send(msg.MSG_STATUSTEXT)
+        data = text.encode()
+        n = len(data)
+        if n <= _TEXT_LEN or w.mavlink1:
+            struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, data, 0, 0)
+            self._send(msg.MSG_STATUSTEXT)
+            return
+        tid = self._text_id % 0xFFFF + 1     # 1..65535 (0: not chunked)
+        self._text_id = tid
+        k = 0
+        seq = 0
+        while k <= n:
+            struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, data[k:k + _TEXT_LEN], tid, seq)
+            self._send(msg.MSG_STATUSTEXT)
+            k += _TEXT_LEN
+            seq += 1
 
     # ------------------------------------------------------------ telemetry
     def _heartbeat_now(self):
@@ -740,17 +894,24 @@ class Endpoint:
             if mv > 65534:
                 mv = 65534
             par = self.parser
+            # drop_rate_comm as MAVLink defines it (and the MAVLink C library
+            # counts, packet_rx_drop_count): frames corrupted on reception, of
+            # all received. Sequence gaps are not it: senders that share an
+            # identity (two ground programs at 255/190) jump each other's numbers.
+            bad = par.crc_errors + par.bad_header
             drop = 0
-            total = par.frames + par.lost
-            if total > 0:
-                drop = (par.lost * 10000) // total
+            if bad > 0:
+                drop = (bad * 10000) // (par.frames + bad)
             sg = self.signing
             auth = 0     # signing refusals: unsigned and wrong key; replayed, old and far-future
             stale = 0
             if sg is not None:
                 auth = (self.unsigned + sg.bad) & 0xFFFF
                 stale = (sg.replays + sg.future) & 0xFFFF
-            struct.pack_into(msg.SYS_STATUS_FMT, b, o, t.sensors_present, t.sensors_enabled, t.sensors_health,
+            # the fence's health bit set without a fence, as ArduPilot's (a
+            # ground station reads it clear as a breach)
+            struct.pack_into(msg.SYS_STATUS_FMT, b, o, t.sensors_present, t.sensors_enabled,
+                             t.sensors_health | msg.MAV_SYS_STATUS_GEOFENCE,
                              t.load_permille, mv, _clamp16(bat[1] * 100.0), drop,
                              (par.crc_errors + par.bad_header) & 0xFFFF, t.failsafe_flags & 0xFFFF,
                              auth, stale, 0, int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0)
