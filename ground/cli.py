@@ -3,7 +3,10 @@
 MAVProxy's conventions where they exist: ``--master`` takes pymavlink's
 connection strings, ``--baudrate`` defaults to 57600 (SiK radios),
 ``--source-system`` to 255, ``--key``/``--key-file`` set up MAVLink 2
-signing with MAVProxy's key derivation. Link handling lives in
+signing with MAVProxy's key derivation. The link options go before the
+command (MAVProxy's order) or after it; ``--master`` defaults to the
+``ROBORAY_MASTER`` environment variable, and ``auto`` finds a SiK radio by
+its USB ids (``ground/radios.py``). Link handling lives in
 ``ground/link.py``; this module only parses, dispatches and prints.
 """
 
@@ -17,7 +20,11 @@ import sys
 import time
 from typing import Any, Optional, Sequence
 
-from roboray.tools.cli import CliError, UsageError, add_json, command, emit, make_parser, number, output_file, run
+from roboray.tools.cli import (CliError, UsageError, add_json, check_target, command, emit, glide_reach, make_parser,
+                               number, output_file, positive, run)
+
+#: The environment variable that gives ``--master`` when it is not typed.
+MASTER_ENV = "ROBORAY_MASTER"
 
 
 def do_ports(args: argparse.Namespace) -> None:
@@ -60,10 +67,22 @@ def _key(args: argparse.Namespace) -> Optional[bytes]:
     return None
 
 
+def _master(args: argparse.Namespace) -> str:
+    """The link to open: ``--master``, else ``$ROBORAY_MASTER``; ``auto``
+    is the one SiK radio plugged in."""
+    from roboray.ground import radios
+
+    master = getattr(args, "master", None) or os.environ.get(MASTER_ENV, "").strip()
+    if not master:
+        raise UsageError("no link: give --master (before or after the command: a serial port, udpin:HOST:PORT, "
+                         "... or auto) or set %s" % MASTER_ENV)
+    return radios.pick(master)
+
+
 def _connect(args: argparse.Namespace):
     from roboray.ground.link import Link
 
-    link = Link(args.master, args.baudrate, args.source_system, _key(args))
+    link = Link(_master(args), args.baudrate, args.source_system, _key(args))
     try:
         link.wait_heartbeat(args.timeout)
     except BaseException:
@@ -72,15 +91,47 @@ def _connect(args: argparse.Namespace):
     return link
 
 
-def _link_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("link (MAVProxy's options)")
-    g.add_argument("--master", required=True,
-                   help="serial port (PATH or PATH,BAUD), udpin:HOST:PORT, udpout:HOST:PORT or tcp:HOST:PORT")
-    g.add_argument("--baudrate", type=int, default=57600, help="serial baud rate (default 57600)")
-    g.add_argument("--source-system", type=int, default=255, help="our MAVLink system id (default 255)")
-    g.add_argument("--key", metavar="PASSPHRASE", help="sign with the key MAVProxy derives from PASSPHRASE")
-    g.add_argument("--key-file", metavar="FILE", help="read the signing passphrase from FILE's first line")
-    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the vehicle (default 5)")
+def _baudrate(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("%r is not a baud rate (a whole number, e.g. 57600)" % text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError("%r is not a baud rate (a whole number, e.g. 57600)" % text)
+    return value
+
+
+def _system_id(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 1 <= value <= 255:
+        raise argparse.ArgumentTypeError("%r is not a MAVLink system id (1 to 255)" % text)
+    return value
+
+
+def _link_options(p: argparse.ArgumentParser, top: bool = False) -> None:
+    """MAVProxy's link options. On the top-level parser with their defaults;
+    on a command's without (SUPPRESS), so that one given before the command
+    is not overwritten by the command's default."""
+    def default(value: Any) -> Any:
+        return value if top else argparse.SUPPRESS
+
+    g = p.add_argument_group("link (MAVProxy's options, before or after the command)")
+    g.add_argument("--master", default=default(None), metavar="DEVICE",
+                   help="serial port (PATH or PATH,BAUD), udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, or "
+                        "auto: the one SiK radio plugged in (USB ids 0403:6015, 10c4:ea60) (default: $%s)"
+                        % MASTER_ENV)
+    g.add_argument("--baudrate", type=_baudrate, default=default(57600), help="serial baud rate (default 57600)")
+    g.add_argument("--source-system", type=_system_id, default=default(255),
+                   help="our MAVLink system id, 1 to 255 (default 255)")
+    g.add_argument("--key", metavar="PASSPHRASE", default=default(None),
+                   help="sign with the key MAVProxy derives from PASSPHRASE")
+    g.add_argument("--key-file", metavar="FILE", default=default(None),
+                   help="read the signing passphrase from FILE's first line")
+    g.add_argument("--timeout", type=positive, default=default(5.0), metavar="S",
+                   help="seconds to wait for the vehicle's heartbeat (default 5)")
 
 
 # ---------------------------------------------------------------- status
@@ -156,10 +207,48 @@ def do_mode(args: argparse.Namespace) -> None:
              "mode %s" % modes.NAMES[number_])
 
 
+#: The deepest bottom a target may be given (CTL_DEPTH_M's maximum, the
+#: MS5837-30BA's range): the reach checked before the link opens.
+DEEPEST_M = 300.0
+
+
 def do_target(args: argparse.Namespace) -> None:
-    down = math.nan if args.down is None else args.down
-    _command(args, MAV_CMD_DO_REPOSITION, (-1, 0, 0, math.nan, args.north, args.east, down),
-             "target", "target %.2f m north, %.2f m east" % (args.north, args.east))
+    """Send the target after checking it is within reach: from the surface
+    to ``--down`` when given; else to the deepest bottom before the link
+    opens, then to the vehicle's own ``CTL_DEPTH_M`` (the bottom it assumes)."""
+    from roboray.ground.link import LinkError
+
+    north, east = args.north, args.east
+    if args.down is not None:
+        check_target(north, east, args.down, 0.0, " (--down)")
+    else:
+        check_target(north, east, DEEPEST_M, 0.0, " (the deepest a target may be: give --down)")
+    link = _connect(args)
+    try:
+        bottom, whose = args.down, "--down"
+        if bottom is None:
+            try:
+                bottom, _ = link.param_get("CTL_DEPTH_M", timeout=min(args.ack_timeout, 3.0))
+                bottom, whose = float(bottom), "CTL_DEPTH_M"
+            except LinkError:
+                whose = "unknown: the vehicle did not say its CTL_DEPTH_M"
+            else:
+                check_target(north, east, bottom, 0.0, " (the vehicle's CTL_DEPTH_M: give --down)")
+        link.command(MAV_CMD_DO_REPOSITION, (-1, 0, 0, math.nan, north, east, math.nan if args.down is None
+                                             else args.down), timeout=args.ack_timeout, name="target")
+    finally:
+        link.close()
+    result = {"command": "target", "result": "accepted", "north_m": north, "east_m": east,
+              "distance_m": math.hypot(north, east), "bottom_m": bottom, "bottom_from": whose,
+              "reach_m": None if bottom is None else glide_reach(bottom)}
+
+    def text(r: dict) -> str:
+        line = "target %.2f m north, %.2f m east (%.2f m away)" % (north, east, r["distance_m"])
+        if bottom is None:
+            return line + ", on the vehicle's own bottom depth (%s)" % whose
+        return line + ", bottom at %.1f m (%s): reach %.2f m" % (bottom, whose, r["reach_m"])
+
+    emit(args, result, text)
 
 
 # ------------------------------------------------------------ parameters
@@ -383,7 +472,7 @@ def do_watch(args: argparse.Namespace) -> None:
 
     tty = sys.stdout.isatty() and not args.plain
     state = State(lost_after_s=args.lost_after)
-    link = Link(args.master, args.baudrate, args.source_system, _key(args))
+    link = Link(_master(args), args.baudrate, args.source_system, _key(args))
     link.on_message = state.update
     end = math.inf if args.duration is None else time.monotonic() + args.duration
     next_draw = 0.0
@@ -424,9 +513,8 @@ def do_log(args: argparse.Namespace) -> None:
 def _log_record(args: argparse.Namespace) -> None:
     from roboray.ground.tlog import TlogWriter
 
-    if not args.master:
-        raise UsageError("log record needs --master")
     _writable(args.file)
+    _master(args)   # no link given: said before anything is written
     link = _connect(args)
     count = 0
     end = math.inf if args.duration is None else time.monotonic() + args.duration
@@ -538,40 +626,54 @@ def do_demo_vehicle(args: argparse.Namespace) -> None:
 
 def build_parser():
     parser, sub = make_parser("roboray-ground", "RoboRay ground station (MAVLink 2 over a serial radio or UDP).")
+    _link_options(parser, top=True)
     p = command(sub, "ports", do_ports, "list the serial ports a radio could be on")
     add_json(p)
 
     p = command(sub, "status", do_status, "the vehicle's state, once")
     _link_options(p)
-    p.add_argument("--listen", type=float, default=1.5, help="seconds of telemetry to gather (default 1.5)")
+    p.add_argument("--listen", type=positive, default=1.5, metavar="S",
+                   help="seconds of telemetry to gather (default 1.5)")
     add_json(p)
 
     p = command(sub, "watch", do_watch, "live view of the vehicle, redrawn in place")
     _link_options(p)
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--duration", type=positive, default=None, metavar="S", help="stop after this many seconds")
     p.add_argument("--plain", action="store_true", help="line output even on a terminal")
-    p.add_argument("--lost-after", type=float, default=3.0, help="seconds without a heartbeat shown as link lost (default 3)")
+    p.add_argument("--lost-after", type=positive, default=3.0, metavar="S",
+                   help="seconds without a heartbeat shown as link lost (default 3)")
 
-    for name, handler, text in (("arm", do_arm, "arm the vehicle (DISARMED -> PASSIVE)"),
-                                ("disarm", do_disarm, "disarm the vehicle (servos to the safe position)")):
+    ack = dict(type=positive, default=3.0, metavar="S", help="seconds to wait for COMMAND_ACK (default 3)")
+    for name, handler, text, force in (
+            ("arm", do_arm, "arm the vehicle (DISARMED -> PASSIVE)",
+             "arm without the vehicle's pre-arm checks (MAVLink's force code 21196)"),
+            ("disarm", do_disarm, "disarm the vehicle (servos to the safe position)",
+             "send MAVLink's force code 21196 as well; this vehicle never refuses to disarm, so it changes "
+             "nothing")):
         p = command(sub, name, handler, text)
         _link_options(p)
-        p.add_argument("--force", action="store_true", help="skip the vehicle's pre-arm checks")
-        p.add_argument("--ack-timeout", type=float, default=3.0, help="seconds to wait for COMMAND_ACK")
+        p.add_argument("--force", action="store_true", help=force)
+        p.add_argument("--ack-timeout", **ack)
         add_json(p)
 
     p = command(sub, "mode", do_mode, "switch flight mode (DISARMED, PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE)")
-    p.add_argument("name", metavar="NAME")
+    p.add_argument("name", metavar="NAME",
+                   help="the mode, in any case: DISARMED, PASSIVE, ATTITUDE, VELOCITY, TARGET or FAILSAFE "
+                        "(TARGET needs a target set first)")
     _link_options(p)
-    p.add_argument("--ack-timeout", type=float, default=3.0, help="seconds to wait for COMMAND_ACK")
+    p.add_argument("--ack-timeout", **ack)
     add_json(p)
 
-    p = command(sub, "target", do_target, "set the landing target, metres north and east of the release point")
-    p.add_argument("north", type=number, metavar="NORTH")
-    p.add_argument("east", type=number, metavar="EAST")
-    p.add_argument("--down", type=number, default=None, help="target depth in metres (default: keep)")
+    p = command(sub, "target", do_target,
+                "set the landing target, metres north and east of the release point; one beyond the reach "
+                "(best glide ratio 0.49 times the bottom's depth) is refused")
+    p.add_argument("north", type=number, metavar="NORTH", help="metres north of the release point (negative: south)")
+    p.add_argument("east", type=number, metavar="EAST", help="metres east of the release point (negative: west)")
+    p.add_argument("--down", type=positive, default=None, metavar="D",
+                   help="the bottom's depth at the target, metres below the surface, > 0 (default: the "
+                        "vehicle's CTL_DEPTH_M parameter)")
     _link_options(p)
-    p.add_argument("--ack-timeout", type=float, default=3.0, help="seconds to wait for COMMAND_ACK")
+    p.add_argument("--ack-timeout", **ack)
     add_json(p)
 
     p = command(sub, "param", do_param, "list, get, set, save, load or diff parameters (ArduPilot file format)")
@@ -593,34 +695,31 @@ def build_parser():
     add_json(p)
 
     p = command(sub, "log", do_log, "record a tlog, or plot one")
-    p.add_argument("action", choices=("record", "plot"))
-    p.add_argument("file", metavar="FILE.tlog")
-    p.add_argument("--out", type=output_file, help="plot: the PNG to write")
-    p.add_argument("--duration", type=float, default=None, help="record: stop after this many seconds")
-    g = p.add_argument_group("link (record)")
-    g.add_argument("--master", help="serial port or pymavlink connection string")
-    g.add_argument("--baudrate", type=int, default=57600)
-    g.add_argument("--source-system", type=int, default=255)
-    g.add_argument("--key", metavar="PASSPHRASE")
-    g.add_argument("--key-file", metavar="FILE")
-    g.add_argument("--timeout", type=float, default=5.0)
+    p.add_argument("action", choices=("record", "plot"),
+                   help="record: write what the vehicle sends to FILE.tlog; plot: draw FILE.tlog to --out")
+    p.add_argument("file", metavar="FILE.tlog", help="the tlog to write (record) or read (plot)")
+    p.add_argument("--out", type=output_file, metavar="FILE.png", help="plot: the PNG to write")
+    p.add_argument("--duration", type=positive, default=None, metavar="S", help="record: stop after this many seconds")
+    _link_options(p)
     add_json(p)
 
     tl = sub.add_parser("tlog", help="read tlogs with the board's own codec", description="read tlogs with the board's own codec")
     tl_sub = tl.add_subparsers(title="actions", metavar="ACTION", parser_class=type(parser))
     p = command(tl_sub, "dump", do_tlog_dump, "decode a tlog: one JSON object per message with --json")
-    p.add_argument("file", metavar="FILE")
+    p.add_argument("file", metavar="FILE", help="the tlog to read")
     p.add_argument("--key", metavar="PASSPHRASE", help="check signatures with this passphrase's key")
     p.add_argument("--types", nargs="+", metavar="TYPE", help="only these message types")
     add_json(p)
 
     p = command(sub, "demo-vehicle", do_demo_vehicle,
                 "serve the board endpoint (MicroPython) behind a pseudo-terminal; prints its path")
-    p.add_argument("--sysid", type=int, default=1)
-    p.add_argument("--key", metavar="PASSPHRASE")
-    p.add_argument("--key-file", metavar="FILE")
+    p.add_argument("--sysid", type=_system_id, default=1, help="the vehicle's MAVLink system id (default 1)")
+    p.add_argument("--key", metavar="PASSPHRASE", default=argparse.SUPPRESS,
+                   help="the vehicle's signing key, from PASSPHRASE (default: none)")
+    p.add_argument("--key-file", metavar="FILE", default=argparse.SUPPRESS,
+                   help="read the key's passphrase from FILE's first line")
     p.add_argument("--still", action="store_true", help="hold the telemetry still (default: a scripted descent)")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--duration", type=positive, default=None, metavar="S", help="stop after this many seconds")
     return parser
 
 

@@ -35,7 +35,10 @@ def test_fly_velocity_text_output(capsys):
 
 
 @pytest.mark.parametrize("args, code, message", [
-    (("fly", "--target", "9,0", "--depth", "10"), 1, "beyond the reach"),
+    (("fly", "--target", "9,0", "--depth", "10"), 2, "beyond the reach"),
+    (("fly", "--target", "-1.5,-4.6"), 2, "target -1.50 m north, -4.60 m east is 4.84 m away, beyond the reach"),
+    (("fly", "--depth", "0.3"), 2, "at least 0.5 m below the release depth"),
+    (("montecarlo", "--distance", "5"), 2, "beyond the reach of a glide from 0.10 m deep to a bottom at 10.0 m"),
     (("fly", "--target", "1"), 2, "--target"),
     (("fly", "--velocity", "a,b"), 2, "--velocity"),
     (("montecarlo", "--runs", "0"), 2, "at least 1"),
@@ -50,12 +53,24 @@ def test_bad_requests_get_one_line(capsys, args, code, message):
     assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_a_failure_is_one_line_and_exit_1_in_a_real_process():
-    proc = subprocess.run([sys.executable, "-m", "roboray.sim.cli", "fly", "--target", "0,7", "--depth", "5"],
+def test_a_target_beyond_reach_is_one_line_and_exit_2_in_a_real_process():
+    proc = subprocess.run([sys.executable, "-m", "roboray.sim.cli", "fly", "--target", "0,-7", "--depth", "5"],
                           capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 1 and proc.stdout == ""
-    assert proc.stderr.startswith("roboray-sim: error: target 7.00 m away is beyond the reach")
-    assert len(proc.stderr.strip().splitlines()) == 1
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr == ("roboray-sim: error: target 0.00 m north, -7.00 m east is 7.00 m away, beyond the reach "
+                           "of a glide from 0.10 m deep to a bottom at 5.0 m: 2.38 m (best glide ratio 0.49)\n")
+
+
+def test_fly_takes_negative_values_in_every_option(capsys):
+    out = run(capsys, "fly", "--mode", "target", "--target", "-0.6,-0.4", "--depth", "3", "--heading", "-30",
+              "--truth", "--max-time", "20", "--json")
+    assert out["target"] == [-0.6, -0.4] and out["landed"] and out["landing_error_m"] < 0.25
+    out = run(capsys, "fly", "--mode", "velocity", "--velocity", "-0.05,-0.02", "--depth", "2", "--truth",
+              "--max-time", "10", "--json")
+    assert out["mode"] == "velocity"
+    out = run(capsys, "fly", "--mode", "attitude", "--attitude", "-5,-2.5", "--depth", "2", "--truth",
+              "--max-time", "5", "--json")
+    assert out["mode"] == "attitude"
 
 
 def test_montecarlo_reports_percentiles(capsys, tmp_path):

@@ -45,7 +45,9 @@ def test_arm_mode_disarm(vehicle):
     assert r.returncode == 1
     assert r.stderr.strip() == "roboray-ground: error: mode TARGET refused: no target set (failed)"
     r = ground("target", "2", "-1.5", "--master", vehicle.device, "--json")
-    assert r.returncode == 0 and json.loads(r.stdout) == {"command": "target", "result": "accepted"}
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert (out["command"], out["result"], out["north_m"], out["east_m"]) == ("target", "accepted", 2.0, -1.5)
     r = ground("mode", "TARGET", "--master", vehicle.device)
     assert r.returncode == 0, r.stderr
     r = ground("status", "--master", vehicle.device, "--json", "--listen", "0.5")
@@ -345,3 +347,73 @@ def test_output_paths_are_refused_before_the_link_opens():
         r = ground(*args)
         assert r.returncode == 2 and "no folder /missing/dir to write it in" in r.stderr, (args, r.stderr)
         assert len(r.stderr.splitlines()) == 1
+
+
+# ------------------------------------------------------- CLI conventions (issue 17)
+def test_link_options_go_before_or_after_the_command_or_come_from_the_environment(vehicle):
+    r = ground("--master", vehicle.device, "status", "--json", "--listen", "0.5")   # MAVProxy's order
+    assert r.returncode == 0 and json.loads(r.stdout)["system"] == 1, r.stderr
+    r = ground("--master", "/dev/ttyNOPE0", "--timeout", "2", "status", "--master", vehicle.device, "--listen", "0.5")
+    assert r.returncode == 0, r.stderr   # given twice: the one after the command wins
+    env = dict(os.environ, ROBORAY_MASTER=vehicle.device)
+    r = ground("status", "--json", "--listen", "0.5", env=env)
+    assert r.returncode == 0 and json.loads(r.stdout)["source"].startswith(vehicle.device), r.stderr
+    r = ground("status", "--master", "/dev/ttyNOPE0", env=env)   # --master beats the environment
+    assert r.returncode == 1 and "no such port /dev/ttyNOPE0" in r.stderr
+    env = {k: v for k, v in os.environ.items() if k != "ROBORAY_MASTER"}
+    for args in (("status",), ("log", "record", "x.tlog"), ("watch", "--duration", "1")):
+        r = ground(*args, env=env)
+        assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, (args, r.stderr)
+        assert "no link: give --master (before or after the command" in r.stderr and "ROBORAY_MASTER" in r.stderr
+
+
+def test_target_says_what_it_understood_and_refuses_what_is_beyond_reach(vehicle):
+    r = ground("target", "2", "-1", "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr   # the vehicle's CTL_DEPTH_M is 10 m: 4.85 m of reach
+    assert r.stdout.strip() == ("target 2.00 m north, -1.00 m east (2.24 m away), bottom at 10.0 m (CTL_DEPTH_M): "
+                                "reach 4.85 m")
+    r = ground("target", "-1.5", "-.5", "--down", "4", "--master", vehicle.device, "--json")
+    out = json.loads(r.stdout)
+    assert (out["north_m"], out["east_m"], out["bottom_m"], out["bottom_from"]) == (-1.5, -0.5, 4.0, "--down")
+    # beyond the reach from the vehicle's bottom depth: refused after asking it, nothing sent
+    r = ground("target", "6", "0", "--master", vehicle.device)
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, r.stderr
+    assert "target 6.00 m north, 0.00 m east is 6.00 m away, beyond the reach" in r.stderr
+    assert "bottom at 10.0 m (the vehicle's CTL_DEPTH_M: give --down): 4.85 m" in r.stderr
+    # centimetres typed as metres: refused before the link opens (the port does not exist)
+    r = ground("target", "200", "100", "--master", "/dev/ttyNOPE0")
+    assert r.returncode == 2 and "223.61 m away, beyond the reach" in r.stderr and "give --down" in r.stderr
+    r = ground("target", "2", "1", "--down", "1", "--master", "/dev/ttyNOPE0")
+    assert r.returncode == 2 and "bottom at 1.0 m (--down): 0.49 m" in r.stderr
+    r = ground("target", "2", "1", "--down", "-10", "--master", "/dev/ttyNOPE0")
+    assert r.returncode == 2 and "argument --down: '-10' must be greater than 0" in r.stderr
+
+
+def test_master_auto_takes_the_one_sik_radio():
+    from serial.tools.list_ports_common import ListPortInfo
+
+    from roboray.ground import radios
+
+    def port(device, vid, pid):
+        p = ListPortInfo(device, skip_link_detection=True)
+        p.vid, p.pid, p.product = vid, pid, "radio"
+        return p
+
+    pico, ftdi, cp210x, other = (port("/dev/ttyACM0", 0x2E8A, 0x0005), port("/dev/ttyUSB1", 0x0403, 0x6015),
+                                 port("/dev/ttyUSB0", 0x10C4, 0xEA60), port("/dev/ttyUSB2", 0x1A86, 0x7523))
+    assert radios.pick("/dev/ttyS0", []) == "/dev/ttyS0"
+    assert radios.pick("auto", [pico, ftdi, other]) == "/dev/ttyUSB1"
+    assert radios.pick("auto", [cp210x, pico]) == "/dev/ttyUSB0"
+    with pytest.raises(radios.NoRadioFound, match="no radio found: .*0403:6015, 10c4:ea60"):
+        radios.pick("auto", [pico, other])
+    with pytest.raises(radios.NoRadioFound, match="2 radios found, choose one with --master: /dev/ttyUSB0 "):
+        radios.pick("auto", [ftdi, cp210x])
+
+
+def test_bad_link_values_are_usage_errors():
+    for args, words in ((("status", "--timeout", "-1"), "argument --timeout: '-1' must be greater than 0"),
+                        (("--baudrate", "fast", "status"), "'fast' is not a baud rate"),
+                        (("arm", "--source-system", "256"), "'256' is not a MAVLink system id (1 to 255)"),
+                        (("arm", "--ack-timeout", "0"), "argument --ack-timeout: '0' must be greater than 0")):
+        r = ground(*args, "--master", "/dev/ttyNOPE0")
+        assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and words in r.stderr, (args, r.stderr)

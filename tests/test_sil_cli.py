@@ -61,15 +61,23 @@ def test_text_output_names_the_failsafes_and_their_reports(sim):
     # faults that cannot happen: a flash step beyond a save's, a time after the run's end
     (("--fault", "powercut:7@12"), 2, "a parameter save has 6 flash steps"),
     (("--fault", "powercut:16@12"), 2, "use 1..6"),
-    (("--duration", "10", "--fault", "watchdog@12"), 1, "at 12 s, but the run ends at 10 s"),
-    (("--fault", "leak@120"), 1, "at 120 s, but the run ends at 120 s"),
+    # every bad argument is exit 2, whether argparse or the twin finds it (issue 17)
+    (("--duration", "10", "--fault", "watchdog@12"), 2, "at 12 s, but the run ends at 10 s"),
+    (("--fault", "leak@120"), 2, "at 120 s, but the run ends at 120 s"),
     (("--speedup", "0"), 2, "--speedup '0'"),
     (("--param", "FS_GCS_TIMEOUT"), 2, "expected NAME=VALUE"),
-    (("--param", "NO_SUCH_PARAM=1"), 1, "no such parameter"),
-    (("--param", "FS_GCS_TIMEOUT=500"), 1, "out of range"),
-    (("--radio", "serial"), 1, "expected pty, udp:PORT"),
-    (("--target", "1,2"), 1, "--target applies to target-landing"),
-    (("--depth", "0.1"), 1, "deeper than 0.3 m"),
+    (("--param", "NO_SUCH_PARAM=1"), 2, "no such parameter"),
+    (("--param", "FS_GCS_TIMEOUT=500"), 2, "out of range"),
+    (("--param", "FS_GCS_TIMEOUT=-1"), 2, "out of range"),
+    (("--radio", "serial"), 2, "expected pty, udp:PORT"),
+    (("--radio", "udp"), 2, "expected pty, udp:PORT"),
+    (("--target", "1,2"), 2, "--target applies to target-landing"),
+    (("--depth", "0.1"), 2, "deeper than 0.3 m"),
+    # the reach, as fly and roboray-ground target check it
+    (("--scenario", "target-landing", "--target", "200,0"), 2,
+     "target 200.00 m north, 0.00 m east is 200.00 m away, beyond the reach of a glide from 0.05 m deep to a "
+     "bottom at 10.0 m: 4.83 m"),
+    (("--scenario", "target-landing", "--target", "-1.5,-1", "--depth", "2"), 2, "1.80 m away, beyond the reach"),
     # output paths are checked before the run, not after it
     (("--tlog", "/missing/dir/x.tlog"), 2, "argument --tlog: /missing/dir/x.tlog: no folder /missing/dir"),
     (("--plot", "/missing/dir/x.png"), 2, "argument --plot: /missing/dir/x.png: no folder /missing/dir"),
@@ -88,7 +96,7 @@ def test_bad_arguments_are_one_line_errors(sim, args, code, words):
 ])
 def test_bench_sil_bad_arguments_are_one_line_errors(sim, args, words):
     proc = sim("bench", "sil", *args)
-    assert proc.returncode == 1
+    assert proc.returncode == 2
     lines = [ln for ln in proc.stderr.strip().splitlines() if not ln.startswith("roboray.sim")]
     assert len(lines) == 1 and words in lines[0], proc.stderr
     assert "Traceback" not in proc.stderr and proc.stdout == ""

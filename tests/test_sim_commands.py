@@ -112,3 +112,24 @@ def test_bench_dynamics_reports_figures():
     out = json.loads(proc.stdout)
     assert out["real_time_factor"] > 1 and out["vehicle_seconds_per_second"] > 1
     assert out["dt_s"] == 0.01 and "rk4" in out["integrator"]
+
+
+def test_drop_takes_negative_vectors():
+    proc = sim("drop", "--v0", "-0.1,0,0", "--omega0", "-0.2,0,0", "--current", "-0.05,0,0", "--tilt-deg", "-5",
+               "--duration", "2", "--json")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["duration"] == 2.0
+
+
+def test_bench_estimator_sources_are_the_estimators_and_controllability_depth_is_brackets():
+    from roboray.sim import estimation
+    from roboray.sim.cli import build_parser
+
+    parser = build_parser()
+    bench = next(a for a in parser._subparsers._group_actions[0].choices["bench"]._actions if a.dest != "help"
+                 and getattr(a, "choices", None) and "estimator" in a.choices).choices["estimator"]
+    source = next(a for a in bench._actions if a.dest == "source")
+    assert set(source.choices) == set(estimation.TRUTH_SOURCES) and source.default == "dynamics"
+    assert parser.parse_args(["controllability", "--bracket-depth", "2"]).bracket_depth == 2
+    proc = sim("controllability", "--depth", "2")
+    assert proc.returncode == 2 and "unrecognized arguments: --depth" in proc.stderr

@@ -15,6 +15,7 @@ import errno
 import json
 import logging
 import math
+import re
 import sys
 from typing import Any, Callable, Optional, Sequence
 
@@ -33,8 +34,25 @@ class UsageError(CliError):
     exit_code = 2
 
 
+#: What argparse takes for a negative number, so that ``--target -1.5,-1``,
+#: ``--v0 -0.1,0,0``, ``--down -2e-1`` and ``target -2 -1`` give the option
+#: (or the positional) its value: a ``-`` followed by a digit, or by a point
+#: and a digit. argparse's own (``^-\d+$|^-\d*\.\d+$``, widened to
+#: exponents in Python 3.14) takes a comma list for an unknown option and
+#: says "expected one argument". It only applies while no option string
+#: itself looks like a negative number, which none of ours does.
+NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse with a one-line usage error and exit status 2."""
+    """argparse with a one-line usage error and exit status 2, and values
+    that start with a minus sign (negative numbers and lists of them)."""
+
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        super().__init__(*args, **kw)
+        # argparse consults this attribute on the parser that parses (each
+        # subcommand has its own Parser); tests/test_cli.py holds the effect.
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write("%s: error: %s (see %s --help)\n" % (self.prog, message, self.prog))
@@ -93,6 +111,35 @@ def positive(text: str) -> float:
     if value <= 0:
         raise argparse.ArgumentTypeError("%r must be greater than 0" % text)
     return value
+
+
+def best_glide_ratio() -> float:
+    """The allocation table's best glide ratio (0.49, between two wings)."""
+    from roboray.shared.control import allocation_table as T
+
+    return float(max(T.RATIO_MAX))
+
+
+def glide_reach(depth: float, release_depth: float = 0.0) -> float:
+    """How far (m, horizontally) a target landing can go: the best glide
+    ratio times the height from the release to the bottom."""
+    return best_glide_ratio() * max(0.0, depth - release_depth)
+
+
+def check_target(north: float, east: float, depth: float, release_depth: float = 0.0,
+                 whose: str = "") -> float:
+    """Refuse (exit 2) a target beyond :func:`glide_reach`; return its
+    distance. The one reach check of ``fly``, ``sil`` and ``roboray-ground
+    target``; ``whose`` says where the depth came from when not the
+    command's own ``--depth``."""
+    distance = math.hypot(north, east)
+    reach = glide_reach(depth, release_depth)
+    if distance > reach:
+        raise UsageError("target %.2f m north, %.2f m east is %.2f m away, beyond the reach of a glide from "
+                         "%.2f m deep to a bottom at %.1f m%s: %.2f m (best glide ratio %.2f)"
+                         % (north, east, distance, release_depth, depth, whose, reach,
+                            best_glide_ratio()))
+    return distance
 
 
 def emit(args: argparse.Namespace, result: Any, text: Optional[Callable[[Any], str]] = None) -> None:

@@ -197,7 +197,7 @@ def do_controllability(args: argparse.Namespace) -> None:
     model, trims = _trims(args)
     trim = trims[0]
     result = {"trim": trim.as_dict(), "linear": controllability.linear(model, trim),
-              "lie": controllability.lie_rank(model, trim, depth=args.depth)}
+              "lie": controllability.lie_rank(model, trim, depth=args.bracket_depth)}
 
     def text(r):
         lin, lie = r["linear"], r["lie"]
@@ -233,7 +233,8 @@ def register(sub, bench) -> None:
                        help="wing deflections, degrees (default 0,0,0,0)")
         p.add_argument("--settle", type=positive, default=40.0, help="seconds of free fall to settle (default 40)")
         if name == "controllability":
-            p.add_argument("--depth", type=int, default=3, choices=(1, 2, 3, 4), help="bracket depth (default 3)")
+            p.add_argument("--bracket-depth", type=int, default=3, choices=(1, 2, 3, 4), metavar="N",
+                           help="Lie brackets nested up to N deep, 1 to 4 (default 3; --depth is metres elsewhere)")
         add_vehicle_options(p)
         add_json(p)
 

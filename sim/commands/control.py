@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import time
 
 import numpy as np
 
-from roboray.tools.cli import CliError, add_json, command, emit, floats, number, output_file, positive
+from roboray.tools.cli import UsageError, add_json, check_target, command, emit, floats, number, output_file, positive
 
 #: Heap bytes a cascade step may allocate on MicroPython (issue 7).
 STEP_HEAP_LIMIT = 3200
@@ -46,12 +45,9 @@ def do_fly(args: argparse.Namespace) -> None:
                           velocity=tuple(args.velocity), attitude_deg=tuple(args.attitude), truth=args.truth,
                           seed=args.seed, heading_deg=args.heading, max_flight_s=args.max_time)
     except ValueError as exc:
-        raise CliError(str(exc))
+        raise UsageError(str(exc))
     if args.mode == "target":
-        reach = _reach(spec)
-        if math.hypot(*spec.target) > reach:
-            raise CliError("target %.2f m away is beyond the reach from %.1f m depth (%.2f m: glide ratio 0.49 "
-                           "between two wings, 0.34 towards one)" % (math.hypot(*spec.target), spec.depth, reach))
+        check_target(spec.target[0], spec.target[1], spec.depth, spec.start_depth)
     start = time.perf_counter()
     flight = fly(spec)
     result = dict(flight.metrics)
@@ -60,14 +56,6 @@ def do_fly(args: argparse.Namespace) -> None:
         plot_flight(flight, args.plot)
         result["plot"] = args.plot
     emit(args, result, _fly_text)
-
-
-def _reach(spec) -> float:
-    """Horizontal reach (m) from the release to the bottom: the best glide
-    ratio of the allocation table times the depth to fall."""
-    from roboray.shared.control import allocation_table as T
-
-    return max(T.RATIO_MAX) * (spec.depth - spec.start_depth)
 
 
 def _fly_text(r: dict) -> str:
@@ -158,6 +146,7 @@ def plot_flight(flight, path: str, title: str | None = None) -> None:
 def do_montecarlo(args: argparse.Namespace) -> None:
     from roboray.sim import flight as F
 
+    check_target(args.distance, 0.0, args.depth, F.FlightSpec.start_depth)   # every bearing is as far
     workers = args.workers if args.workers is not None else min(args.runs, os.cpu_count() or 1)
     specs = F.plan(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
                    controller=args.controller, truth=args.truth)
@@ -337,14 +326,17 @@ def register(sub, bench) -> None:
     p = command(sub, "fly", do_fly, "a closed-loop flight: dynamics, sensors, board estimator and controller")
     p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
                    help="cascade (the flight controller) or backstepping (the thesis's, ch. 4)")
-    p.add_argument("--mode", choices=("velocity", "target", "attitude"), default="target")
+    p.add_argument("--mode", choices=("velocity", "target", "attitude"), default="target",
+                   help="what the controller holds: target (land on --target, the default), velocity (hold "
+                        "--velocity) or attitude (hold --attitude)")
     p.add_argument("--target", type=_pair("--target"), default=[2.0, 0.0], metavar="N,E",
-                   help="TARGET: metres north and east of the release point (default 2,0)")
+                   help="target mode: metres north and east of the release point, within the reach (best glide "
+                        "ratio 0.49 times the depth; default 2,0)")
     p.add_argument("--depth", type=positive, default=10.0, metavar="D", help="bottom depth, m (default 10)")
     p.add_argument("--velocity", type=_velocity, default=[0.10, 0.0, 0.0], metavar="VN,VE[,VD]",
-                   help="VELOCITY: m/s north, east, and descent speed (VD <= 0: none; default 0.10,0)")
+                   help="velocity mode: m/s north, east, and descent speed (VD <= 0: none; default 0.10,0)")
     p.add_argument("--attitude", type=_pair("--attitude"), default=[0.0, 0.0], metavar="ROLL,PITCH",
-                   help="ATTITUDE: degrees (default 0,0)")
+                   help="attitude mode: roll and pitch, degrees (default 0,0)")
     p.add_argument("--heading", type=number, default=0.0, metavar="DEG",
                    help="heading at release (wing 1 from north), deg (default 0)")
     p.add_argument("--truth", action="store_true", help="feed the controller the true state, not the estimator's")
@@ -360,7 +352,8 @@ def register(sub, bench) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     p.add_argument("--depth", type=positive, default=10.0, help="bottom depth, m (default 10)")
     p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
-    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade")
+    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
+                   help="cascade (the flight controller, the default) or backstepping (the thesis's, ch. 4)")
     p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
     p.add_argument("--runs-out", type=output_file, metavar="FILE.json", help="write every run's figures and model errors")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the landing points around their targets")

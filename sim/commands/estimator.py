@@ -207,8 +207,9 @@ def register(sub, bench) -> None:
                 "heap bytes and time of a step on MicroPython")
     p.add_argument("--seed", type=_count, default=0, help="first seed (default 0)")
     p.add_argument("--seeds", type=_count, default=10, help="how many seeds to average (default 10)")
-    p.add_argument("--source", default="dynamics",
-                   help="where the truth comes from (roboray.sim.estimation.TRUTH_SOURCES; default kinematic)")
+    p.add_argument("--source", choices=("dynamics", "kinematic"), default="dynamics",
+                   help="where the truth comes from: dynamics (the vehicle model's descent, the default) or "
+                        "kinematic (a prescribed trajectory); roboray.sim.estimation.TRUTH_SOURCES")
     p.add_argument("--no-micropython", action="store_true", help="skip the MicroPython cost figures")
     p.add_argument("--compare-attitude", action="store_true",
                    help="also run the multiplicative EKF in place of the Mahony filter (accuracy and cost)")

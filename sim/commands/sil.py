@@ -6,7 +6,7 @@ import argparse
 import logging
 import sys
 
-from roboray.tools.cli import CliError, add_json, command, emit, floats, output_file, positive
+from roboray.tools.cli import CliError, UsageError, add_json, check_target, command, emit, floats, output_file, positive
 
 log = logging.getLogger("roboray.sim.sil")
 
@@ -62,11 +62,15 @@ def _twin(args: argparse.Namespace, **kwargs):
     from roboray.sim.twin import scenarios
     from roboray.sim.twin.runner import Twin
 
+    from roboray.sim.twin.world import WorldSpec
+
     try:
         scenario = scenarios.make(args.scenario, args.depth, tuple(args.target) if args.target else None,
                                   args.duration)
     except ValueError as exc:
-        raise CliError(str(exc))
+        raise UsageError(str(exc))
+    if scenario.target is not None:
+        check_target(scenario.target[0], scenario.target[1], scenario.bottom_depth, WorldSpec.start_depth)
     if args.interpreter == "micropython-unix":
         from roboray.tools.micropython import unix_port
 
@@ -86,8 +90,8 @@ def _twin(args: argparse.Namespace, **kwargs):
                        "yet; passive-drop and bottom-rest fly without it" % args.scenario)
     try:
         return Twin(_options(args), **kwargs)
-    except ValueError as exc:
-        raise CliError(str(exc))
+    except ValueError as exc:   # an option the twin cannot take: --radio, --param, --fault's time, ...
+        raise UsageError(str(exc))
     except OSError as exc:
         raise CliError("--radio %s: %s" % (args.radio, exc))
 
@@ -222,7 +226,7 @@ def do_bench_sil(args: argparse.Namespace) -> None:
     if args.count_lines:
         return _count_lines(args)
     if args.repeat < 1:
-        raise CliError("--repeat %d: at least 1" % args.repeat)
+        raise UsageError("--repeat %d: at least 1" % args.repeat)
     # The machine's other work moves one run's speed by tens of percent:
     # the median run stands for the set, the others are listed.
     runs = sorted((_one_drop(args) for _ in range(args.repeat)), key=lambda r: r["real_time_factor"])
@@ -259,7 +263,7 @@ def _count_lines(args: argparse.Namespace) -> None:
     from roboray.tools.micropython import linecount
 
     if args.interpreter != "micropython":
-        raise CliError("--count-lines counts on MicroPython; drop --interpreter %s" % args.interpreter)
+        raise UsageError("--count-lines counts on MicroPython; drop --interpreter %s" % args.interpreter)
     with twin_mod.interpreter(variant="settrace") as mp:
         linecount.start(mp)
         twin = _twin(args, interpreter=mp)
@@ -335,8 +339,15 @@ def register(sub, bench) -> None:
     p.add_argument("--radio", metavar="pty|udp:PORT",
                    help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr) or to a "
                         "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")
-    p.add_argument("--fault", type=fault, action="append", metavar="NAME@SECONDS",
-                   help="inject a fault (repeatable): %s" % ", ".join(faults.NAMES))
+    args_of = {"radio-corrupt": ":P", "battery-sag": ":V", "powercut": ":N", "overload": ":US"}
+    p.add_argument("--fault", type=fault, action="append", metavar="NAME[:ARG]@SECONDS",
+                   help="inject a fault at SECONDS of simulated time (repeatable): %s; ARG: P the probability a "
+                        "byte is corrupted (default %g), V the pack's volts (default %g), N the flash step of a "
+                        "parameter save the power goes at (1-6, default %d), US a clock reading's cost in us "
+                        "(default %d)" % (", ".join(n + ("[%s]" % args_of[n] if n in args_of else "")
+                                                    for n in faults.NAMES),
+                                          faults.DEFAULTS["radio-corrupt"], faults.DEFAULTS["battery-sag"],
+                                          faults.DEFAULTS["powercut"], faults.DEFAULTS["overload"]))
     p.add_argument("--key", metavar="PASSPHRASE",
                    help="MAVLink 2 signing: the vehicle's key on its flash before boot (as SETUP_SIGNING puts it) "
                         "and the scripted ground signs with it (MAVProxy's key from PASSPHRASE)")
@@ -345,7 +356,8 @@ def register(sub, bench) -> None:
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the track, depth, wings and the firmware's modes")
     p.add_argument("--depth", type=positive, help="tank bottom, m (default: the scenario's)")
     p.add_argument("--target", type=lambda s: floats(s, 2, "--target"), metavar="NORTH,EAST",
-                   help="target-landing: the target, m from the release point (default 2,0)")
+                   help="target-landing: the target, m north and east of the release point, within the reach "
+                        "(best glide ratio 0.49 times the depth; default 2,0)")
     p.add_argument("--duration", type=positive, help="the longest the run lasts, simulated s")
     p.add_argument("--param", type=param, action="append", metavar="NAME=VALUE",
                    help="a parameter the board boots with (repeatable)")
@@ -353,8 +365,9 @@ def register(sub, bench) -> None:
     add_json(p)
 
     p = command(bench, "sil", do_bench_sil, "speed of the twin: the passive drop and where a frame's time goes")
-    p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython",
+                   help="the interpreter the firmware runs on, as for sil (default micropython)")
+    p.add_argument("--seed", type=int, default=0, help="seeds every random stream of the drop (default 0)")
     p.add_argument("--duration", type=positive, default=None, help="cut the drop short, simulated s")
     p.add_argument("--repeat", type=int, default=1,
                    help="run the drop N times and report the median run (the machine's load varies)")
