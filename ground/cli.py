@@ -260,21 +260,146 @@ def _fetch_all(args: argparse.Namespace) -> dict:
         link.close()
 
 
+#: Each action's arguments: (fewest, most, usage).
+_PARAM_USAGE = {
+    "list": (0, 0, "param list"), "get": (1, 1, "param get NAME"), "set": (2, 2, "param set NAME VALUE"),
+    "show": (0, 1, "param show [PATTERN] [-v] [--cached]"), "fetch": (0, 1, "param fetch [NAME]"),
+    "save": (1, 1, "param save FILE"), "load": (1, 1, "param load FILE"), "diff": (1, 1, "param diff FILE"),
+    "pdef": (1, 1, "param pdef FILE.xml"),
+}
+
+
+def _param_cache_path() -> str:
+    """Where ``param fetch`` keeps the list it fetched (``show --cached`` reads it)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "roboray", "params.json")
+
+
+def _cache_params(args: argparse.Namespace, values: dict) -> None:
+    path = _param_cache_path()
+    try:
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        tmp = path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump({"master": getattr(args, "master", None), "time": time.time(),
+                       "values": {k: list(v) for k, v in values.items()}}, f)
+        os.replace(tmp, path)
+    except OSError:
+        pass    # a cache that cannot be written is only a cache
+
+
+def _cached_params() -> dict:
+    path = _param_cache_path()
+    try:
+        with open(path, encoding="utf-8") as f:
+            data = json.load(f)
+        return {k: (float(v[0]), int(v[1])) for k, v in data["values"].items()}
+    except FileNotFoundError:
+        raise CliError("no parameter list cached yet: run param fetch first (or leave out --cached)")
+    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
+        raise CliError("%s: not a parameter cache (%s): run param fetch again" % (path, exc))
+
+
+def _param_show(args: argparse.Namespace, values: dict, pattern: str) -> None:
+    """MAVProxy's ``param show``: the parameters whose names match PATTERN
+    (fnmatch wildcards, any case); ``-v`` adds units, range, description."""
+    import fnmatch
+
+    from roboray.firmware.app import PARAMS
+    from roboray.ground.link import fmt_value
+    from roboray.shared.param_meta import META
+
+    decls = {d[0]: d for d in PARAMS}
+    want = pattern.upper()
+    names = [k for k in sorted(values) if fnmatch.fnmatchcase(k, want)]
+    if not names:
+        raise CliError("no parameter matches %s (%d on the vehicle)" % (pattern, len(values)))
+    rows = []
+    for k in names:
+        value, ptype = values[k]
+        row: dict = {"name": k, "value": value, "text": fmt_value(value, ptype)}
+        if args.describe:
+            display, unit, description, codes, _ = META.get(k, ("", "", "", (), ""))
+            d = decls.get(k)
+            row.update(units=unit, description=description, values={str(c): label for c, label in codes},
+                       range=None if d is None else [d[3], d[4]],
+                       read_only=bool(d is not None and len(d) > 5 and d[5] & 1))
+            if d is not None:
+                row["range_text"] = "%s .. %s" % (fmt_value(d[3], ptype), fmt_value(d[4], ptype))
+        rows.append(row)
+
+    def text(_: object) -> str:
+        lines = []
+        for x in rows:
+            lines.append("%-16s %s%s" % (x["name"], x["text"], (" " + x["units"]) if x.get("units") else ""))
+            if args.describe:
+                extra = []
+                if x.get("range_text"):
+                    extra.append("range " + x["range_text"])
+                if x["values"]:
+                    extra.append(", ".join("%s: %s" % kv for kv in x["values"].items()))
+                if x["read_only"]:
+                    extra.append("read-only")
+                if x["description"]:
+                    lines.append("    " + x["description"])
+                if extra:
+                    lines.append("    " + "; ".join(extra))
+        return "\n".join(lines)
+
+    emit(args, rows if args.describe else {x["name"]: x["value"] for x in rows}, text)
+
+
+def _param_pdef(args: argparse.Namespace, path: str) -> None:
+    from roboray.firmware.app import PARAMS
+    from roboray.ground import paramfile
+    from roboray.shared.param_meta import META, UNITS
+
+    _writable(path)
+    text = paramfile.pdef_xml(PARAMS, META, UNITS)
+    tmp = path + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
+    emit(args, {"file": path, "count": len(PARAMS)},
+         lambda r: "wrote the documentation of %d parameters to %s (ArduPilot's apm.pdef.xml form)" % (len(PARAMS), path))
+
+
 def do_param(args: argparse.Namespace) -> None:
     from roboray.ground import paramfile
-    from roboray.ground.link import fmt_value
+    from roboray.ground.link import f32, fmt_value
 
     action = args.action
     rest = args.rest
-    need = {"list": 0, "get": 1, "set": 2, "save": 1, "load": 1, "diff": 1}[action]
-    if len(rest) != need:
-        usage = {"list": "param list", "get": "param get NAME", "set": "param set NAME VALUE",
-                 "save": "param save FILE", "load": "param load FILE", "diff": "param diff FILE"}[action]
+    fewest, most, usage = _PARAM_USAGE[action]
+    if not fewest <= len(rest) <= most:
         raise UsageError("usage: %s" % usage)
     if action == "list":
         values = _fetch_all(args)
+        _cache_params(args, values)
         emit(args, {k: v[0] for k, v in values.items()},
              lambda r: paramfile.format_lines((k, fmt_value(*values[k])) for k in sorted(values)))
+    elif action == "show":
+        values = _cached_params() if args.cached else _fetch_all(args)
+        if not args.cached:
+            _cache_params(args, values)
+        _param_show(args, values, rest[0] if rest else "*")
+    elif action == "fetch" and rest:
+        name = rest[0].upper()
+        link = _connect(args)
+        try:
+            value, ptype = link.param_get(name)
+        finally:
+            link.close()
+        emit(args, {name: value}, lambda r: "%s %s" % (name, fmt_value(value, ptype)))
+    elif action == "fetch":
+        t0 = time.monotonic()
+        values = _fetch_all(args)
+        _cache_params(args, values)
+        took = time.monotonic() - t0
+        emit(args, {"count": len(values), "seconds": round(took, 2)},
+             lambda r: "received %d parameters in %.1f s" % (len(values), took))
+    elif action == "pdef":
+        _param_pdef(args, rest[0])
     elif action == "get":
         name = rest[0].upper()
         link = _connect(args)
@@ -299,30 +424,44 @@ def do_param(args: argparse.Namespace) -> None:
     elif action == "save":
         _writable(rest[0])
         values = _fetch_all(args)
+        _cache_params(args, values)
         paramfile.save(rest[0], ((k, fmt_value(*values[k])) for k in sorted(values)))
         emit(args, {"file": rest[0], "count": len(values)}, lambda r: "saved %d parameters to %s" % (len(values), rest[0]))
     elif action == "load":
         _param_load(args, rest[0])
     elif action == "diff":
+        # as diff(1): exit status 0 when the same, 1 when they differ; values
+        # compared as the vehicle holds them (float32) and printed so that
+        # two that differ never print the same
         wanted = _read_param_file(rest[0])
         values = _fetch_all(args)
         rows = []
         for name in sorted(set(wanted) | set(values)):
+            ptype = values[name][1] if name in values else 9
             if name not in values:
-                rows.append({"name": name, "file": wanted[name], "vehicle": None})
+                rows.append({"name": name, "file": wanted[name], "vehicle": None, "type": ptype})
             elif name not in wanted:
-                rows.append({"name": name, "file": None, "vehicle": values[name][0]})
-            elif _f32(values[name][0]) != _f32(wanted[name]):
-                rows.append({"name": name, "file": wanted[name], "vehicle": values[name][0]})
+                rows.append({"name": name, "file": None, "vehicle": values[name][0], "type": ptype})
+            elif f32(values[name][0]) != f32(wanted[name]):
+                rows.append({"name": name, "file": wanted[name], "vehicle": values[name][0], "type": ptype})
 
-        def text(r: list) -> str:
-            if not r:
+        def shown(value: Optional[float], ptype: int) -> str:
+            if value is None:
+                return "--"
+            if ptype != 9 and not float(value).is_integer():
+                return repr(value)      # a fraction for an integer parameter: as written
+            return fmt_value(value, ptype)
+
+        def text(_: object) -> str:
+            if not rows:
                 return "no differences"
             return "\n".join("%-16s file %-12s vehicle %s" % (
-                x["name"], "--" if x["file"] is None else "%.7g" % x["file"],
-                "--" if x["vehicle"] is None else "%.7g" % x["vehicle"]) for x in r)
+                x["name"], shown(x["file"], x["type"]), shown(x["vehicle"], x["type"])) for x in rows)
 
-        emit(args, rows, text)
+        emit(args, [{k: x[k] for k in ("name", "file", "vehicle")} for x in rows], text)
+        if rows:
+            sys.stdout.flush()
+            raise SystemExit(1)
 
 
 def _read_param_file(path: str) -> dict:
@@ -359,6 +498,7 @@ def _param_load(args: argparse.Namespace, path: str) -> None:
     lists the others."""
     from roboray.firmware.app import PARAMS
     from roboray.ground import paramfile
+    from roboray.ground.link import f32
 
     try:
         wanted, where, problems = paramfile.load_lines(path)
@@ -379,7 +519,7 @@ def _param_load(args: argparse.Namespace, path: str) -> None:
             at = "%s:%d: " % (path, where[name])
             if name not in values:
                 problems.append(at + "%s is not a parameter of the vehicle" % name)
-            elif _f32(values[name][0]) == _f32(value):
+            elif f32(values[name][0]) == f32(value):
                 same += 1
             else:
                 why = paramfile.check_value(name, value, values[name][1], decls.get(name))
@@ -417,12 +557,6 @@ def _param_load(args: argparse.Namespace, path: str) -> None:
         return "\n".join(lines)
 
     emit(args, result, text)
-
-
-def _f32(x: float) -> bytes:
-    import struct
-
-    return struct.pack("<f", x)
 
 
 # --------------------------------------------------------------- signing
@@ -676,13 +810,18 @@ def build_parser():
     p.add_argument("--ack-timeout", **ack)
     add_json(p)
 
-    p = command(sub, "param", do_param, "list, get, set, save, load or diff parameters (ArduPilot file format)")
-    p.add_argument("action", choices=("list", "get", "set", "save", "load", "diff"))
-    p.add_argument("rest", nargs="*", metavar="ARG", help="NAME, NAME VALUE or FILE")
+    p = command(sub, "param", do_param, "list, get, set, show, fetch, save, load or diff parameters "
+                "(ArduPilot file format); pdef writes their documentation (apm.pdef.xml)")
+    p.add_argument("action", choices=("list", "get", "set", "show", "fetch", "save", "load", "diff", "pdef"))
+    p.add_argument("rest", nargs="*", metavar="ARG", help="NAME, NAME VALUE, PATTERN or FILE")
     _link_options(p)
     p.add_argument("--param-timeout", type=float, default=10.0, help="seconds for a full parameter list")
     p.add_argument("--partial", action="store_true",
                    help="load: set the file's good lines and list the bad ones (default: all or nothing)")
+    p.add_argument("-v", "--verbose", dest="describe", action="store_true",
+                   help="show: with units, range, values and description")
+    p.add_argument("--cached", action="store_true",
+                   help="show: from the list the last fetch, list, show or save received (no link)")
     add_json(p)
 
     p = command(sub, "signing", do_signing,

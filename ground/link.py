@@ -439,8 +439,27 @@ def _same_f32(a: float, b: float) -> bool:
     return struct.pack("<f", a) == struct.pack("<f", b)
 
 
+def f32(value: float) -> float:
+    """``value`` rounded to the nearest float32, the vehicle's precision."""
+    import struct
+
+    return struct.unpack("<f", struct.pack("<f", value))[0]
+
+
 def fmt_value(value: float, ptype: int) -> str:
-    """A parameter value as text: integers without a decimal point."""
+    """A parameter value as text that reads back to the same float32.
+
+    Integer types without a decimal point; REAL32 as the shortest decimal
+    that is the same float32 (``0.1``, not ``0.1000000015``), written as
+    Python writes that number (``4.0``, ``101325.0``): a file saved and
+    loaded again sets exactly the values it was saved from."""
     if ptype != 9 and float(value).is_integer():
         return "%d" % int(value)
-    return "%.7g" % value
+    if not math.isfinite(value):
+        return repr(value)
+    want = f32(value)
+    for digits in range(1, 10):     # 9 significant digits always identify a float32
+        text = "%.*g" % (digits, want)
+        if f32(float(text)) == want:
+            return repr(float(text))
+    return repr(want)

@@ -139,6 +139,46 @@ def save(path: str, values: Iterable[tuple[str, str]]) -> None:
     os.replace(tmp, path)
 
 
+def pdef_xml(decls: Iterable[tuple], meta: dict, units: dict, vehicle: str = "RoboRay") -> str:
+    """The parameters' documentation in ArduPilot's ``apm.pdef.xml`` form.
+
+    As ``Tools/autotest/param_metadata/param_parse.py`` writes it, so
+    ground stations that read ArduPilot's (Mission Planner, QGroundControl,
+    MAVProxy) read ours: ``<paramfile><vehicles><parameters name=VEHICLE>``,
+    one ``<param humanName name="VEHICLE:NAME" documentation user>`` a
+    parameter with ``<field>`` children (``Range``, ``Units``, ``UnitText``,
+    ``ReadOnly``) and ``<values><value code>``; ``<libraries/>`` stays
+    empty. ``decls``: the firmware's declarations (range, read-only);
+    ``meta``: ``shared/param_meta.py``'s ``META``; ``units``: its ``UNITS``."""
+    import xml.etree.ElementTree as ET
+
+    from roboray.ground.link import fmt_value
+
+    root = ET.Element("paramfile")
+    vehicles = ET.SubElement(root, "vehicles")
+    group = ET.SubElement(vehicles, "parameters", name=vehicle)
+    for d in decls:
+        name, ptype, lo, hi = d[0], d[1], d[3], d[4]
+        display, unit, description, values, user = meta[name]
+        p = ET.SubElement(group, "param", humanName=display, name="%s:%s" % (vehicle, name),
+                          documentation=description, user=user)
+        ET.SubElement(p, "field", name="Range").text = "%s %s" % (fmt_value(lo, ptype), fmt_value(hi, ptype))
+        if values:
+            vs = ET.SubElement(p, "values")
+            for code, label in values:
+                ET.SubElement(vs, "value", code=str(code)).text = label
+        if unit:
+            ET.SubElement(p, "field", name="Units").text = unit
+            ET.SubElement(p, "field", name="UnitText").text = units[unit]
+        if len(d) > 5 and d[5] & 1:   # READ_ONLY (shared/params.py)
+            ET.SubElement(p, "field", name="ReadOnly").text = "True"
+    ET.SubElement(root, "libraries")
+    ET.indent(root)
+    return ('<?xml version="1.0" encoding="utf-8"?>\n'
+            "<!-- Dynamically generated list of documented parameters (roboray-ground param pdef) -->\n"
+            + ET.tostring(root, encoding="unicode") + "\n")
+
+
 def check_value(name: str, value: float, ptype: int, decl: Optional[tuple]) -> Optional[str]:
     """Why ``value`` cannot be set on the vehicle's ``name`` (MAV_PARAM_TYPE ``ptype``), or None.
 

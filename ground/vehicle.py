@@ -22,6 +22,10 @@ the saved one, saved at SETUP_SIGNING, at disarm and as the clock runs).
 ``restart()`` is a reset of the board: a new interpreter, the same
 pseudo-terminal, the signing record carried across (the only thing kept:
 parameters and modes start from their defaults).
+
+Its parameters are the flight firmware's, every one (``firmware/app.py``
+``PARAMS``: the shared ones and the drivers', navigation's, the failsafes'
+and the controller's), so ``param list`` here shows what a board shows.
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from roboray.tools.micropython import MicroPython
 # Runs inside MicroPython. %(...)s fields are filled in below.
 _BOARD = """
 import time, math, hostlink, binascii
-from roboray.shared import param_defs, modes, quat
+from roboray.shared import modes, quat
 from roboray.shared.params import ParamTable
 from roboray.shared.mavlink.endpoint import Endpoint
 from roboray.shared.mavlink.telemetry import Telemetry
@@ -64,7 +68,7 @@ class Checks:
         return None
 
 __leak = False
-__params = ParamTable(param_defs.PARAMS)
+__params = ParamTable(%(params)s)
 __params.set_by_name('SYSID_THISMAV', %(sysid)d)
 __modes = modes.Modes(Checks())
 __tel = Telemetry()
@@ -128,6 +132,15 @@ def __serve(animate):
 """
 
 
+def _params_source() -> str:
+    """The firmware's parameter declarations (``firmware/app.py`` PARAMS) as
+    source: the demonstration vehicle has the flight firmware's parameter
+    set, not a part of it."""
+    from roboray.firmware.app import PARAMS
+
+    return repr(tuple(tuple(d) for d in PARAMS))
+
+
 class PtyVehicle:
     """Serve the board endpoint behind a pseudo-terminal until ``close()``.
 
@@ -173,7 +186,8 @@ class PtyVehicle:
             mp.install_board_code()
             for path, data in files.items():
                 mp.write_file(path, data)
-            mp.exec(_BOARD % {"sysid": self._sysid, "key": "None" if key is None else repr(bytes(key))})
+            mp.exec(_BOARD % {"sysid": self._sysid, "key": "None" if key is None else repr(bytes(key)),
+                              "params": _params_source()})
         except BaseException:
             mp.close()
             raise

@@ -72,9 +72,9 @@ def test_status_and_watch_show_the_loop_load_and_the_worst_slot(vehicle):
 
 def test_param_get_set_and_refusals(vehicle):
     r = ground("param", "get", "FS_GCS_TIMEOUT", "--master", vehicle.device)
-    assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 5"), r.stderr
+    assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 5.0"), r.stderr
     r = ground("param", "set", "fs_gcs_timeout", "12.5", "--master", vehicle.device)
-    assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 12.5 (was 5)"), r.stderr
+    assert (r.returncode, r.stdout.strip()) == (0, "FS_GCS_TIMEOUT 12.5 (was 5.0)"), r.stderr
     r = ground("param", "get", "FS_GCS_TIMEOUT", "--master", vehicle.device, "--json")
     assert json.loads(r.stdout) == {"FS_GCS_TIMEOUT": 12.5}
     r = ground("param", "set", "FS_GCS_TIMEOUT", "1000", "--master", vehicle.device)
@@ -93,11 +93,95 @@ def test_param_save_diff_load_round_trip(vehicle, tmp_path):
     text = "# tuned\n" + f.read_text().replace("FS_EKF_THRESH    0.8", "FS_EKF_THRESH,1.25")
     f.write_text(text)
     r = ground("param", "diff", str(f), "--master", vehicle.device, "--json")
+    assert r.returncode == 1, r.stderr     # as diff(1): 1 when they differ
     assert json.loads(r.stdout) == [{"name": "FS_EKF_THRESH", "file": 1.25, "vehicle": pytest.approx(0.8)}]
     r = ground("param", "load", str(f), "--master", vehicle.device)
     assert r.returncode == 0 and "1 changed" in r.stdout, r.stdout + r.stderr
     r = ground("param", "diff", str(f), "--master", vehicle.device)
-    assert r.stdout.strip() == "no differences"
+    assert (r.returncode, r.stdout.strip()) == (0, "no differences")
+
+
+def test_param_files_round_trip_exactly(vehicle, tmp_path):
+    # values whose float32s 7 significant digits cannot tell apart (the reload drift)
+    first = tmp_path / "first.parm"
+    r = ground("param", "save", str(first), "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr
+    awkward = {"CTL_POS_P": "0.10000001", "BATT_LOW_VOLT": "6.6", "INS_POS1_Z": "-0.0029",
+               "BARO1_GND_PRESS": "101325.01", "COMPASS_DEC": "0.123456789"}
+    try:
+        for name, value in awkward.items():
+            r = ground("param", "set", name, value, "--master", vehicle.device)
+            assert r.returncode == 0, r.stderr
+        a, b = tmp_path / "a.parm", tmp_path / "b.parm"
+        r = ground("param", "save", str(a), "--master", vehicle.device)
+        assert r.returncode == 0, r.stderr
+        held = json.loads(ground("param", "list", "--master", vehicle.device, "--json").stdout)
+        line = {l.split()[0]: l.split()[1] for l in a.read_text().splitlines()}
+        assert (line["CTL_POS_P"], line["BATT_LOW_VOLT"], line["INS_POS1_Z"]) == ("0.10000001", "6.6", "-0.0029")
+        assert line["SYSID_THISMAV"] == "1" and line["SERVO1_MIN"] == "1000"   # integers without a point
+        # back to the first file, then a: the vehicle holds what it held, bit for bit
+        for path in (first, a):
+            r = ground("param", "load", str(path), "--master", vehicle.device)
+            assert r.returncode == 0, r.stdout + r.stderr
+        assert json.loads(ground("param", "list", "--master", vehicle.device, "--json").stdout) == held
+        r = ground("param", "diff", str(a), "--master", vehicle.device)
+        assert (r.returncode, r.stdout.strip()) == (0, "no differences")
+        r = ground("param", "save", str(b), "--master", vehicle.device)
+        assert r.returncode == 0 and b.read_bytes() == a.read_bytes()
+        # one float32 step apart: reported, and printed differently
+        r = ground("param", "set", "CTL_POS_P", "0.1", "--master", vehicle.device)
+        assert r.returncode == 0, r.stderr
+        r = ground("param", "diff", str(a), "--master", vehicle.device)
+        assert r.returncode == 1 and r.stdout.split() == ["CTL_POS_P", "file", "0.10000001", "vehicle", "0.1"]
+    finally:
+        ground("param", "load", str(first), "--master", vehicle.device)
+
+
+def test_param_show_fetch_and_the_firmwares_whole_set(vehicle, tmp_path):
+    from roboray.firmware.app import PARAMS
+
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    r = ground("param", "show", "--cached", env=env)
+    assert r.returncode == 1 and "run param fetch first" in r.stderr
+    # the demonstration vehicle has the firmware's parameters, every one
+    r = ground("param", "fetch", "--master", vehicle.device, "--json", env=env)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["count"] == len(PARAMS) == 79
+    r = ground("param", "list", "--master", vehicle.device, "--json", env=env)
+    assert sorted(json.loads(r.stdout)) == sorted(d[0] for d in PARAMS)
+    # MAVProxy's wildcards, any case
+    r = ground("param", "show", "fs_*_act", "--master", vehicle.device, env=env)
+    assert r.returncode == 0, r.stderr
+    assert [l.split()[0] for l in r.stdout.splitlines()] == [
+        "FS_DEPTH_ACT", "FS_LOCKUP_ACT", "FS_LOOP_ACT", "FS_MAG_ACT", "FS_SENSOR_ACT"]
+    r = ground("param", "show", "SERVO?_M[AI]?", "--cached", "--json", env=env)
+    assert sorted(json.loads(r.stdout)) == sorted("SERVO%d_%s" % (k, e) for k in range(1, 5) for e in ("MIN", "MAX"))
+    # -v: units, range, values, description
+    r = ground("param", "show", "FS_GCS_*", "-v", "--cached", env=env)
+    assert r.stdout.splitlines() == [
+        "FS_GCS_ENABLE    1",
+        "    What the vehicle does when no ground heartbeat arrived for FS_GCS_TIMEOUT s (after one was seen).",
+        "    range 0 .. 3; 0: Off, 1: Warn, 2: Disarm, 3: FAILSAFE mode",
+        "FS_GCS_TIMEOUT   5.0 s",
+        "    Time without a heartbeat from the ground station before the link-loss failsafe acts.",
+        "    range 1.0 .. 120.0"]
+    r = ground("param", "show", "SERIAL_BAUD", "-v", "--cached", "--json", env=env)
+    row = json.loads(r.stdout)[0]
+    assert (row["value"], row["range"], row["read_only"]) == (57600, [1200, 921600], True)
+    r = ground("param", "show", "NO_SUCH*", "--cached", env=env)
+    assert r.returncode == 1 and "no parameter matches NO_SUCH*" in r.stderr
+    # fetch NAME: one value, read now
+    r = ground("param", "fetch", "sr_status", "--master", vehicle.device, env=env)
+    assert (r.returncode, r.stdout.strip()) == (0, "SR_STATUS 1.0"), r.stderr
+
+
+def test_param_pdef_writes_the_documentation_without_a_vehicle(tmp_path):
+    out = tmp_path / "apm.pdef.xml"
+    r = ground("param", "pdef", str(out))
+    assert r.returncode == 0, r.stderr
+    text = out.read_text()
+    assert text.count("<param ") == 79 and 'name="RoboRay:CTL_SLEW_DPS"' in text
+    assert '<field name="UnitText">degrees per second</field>' in text
 
 
 def test_signed_vehicle_obeys_only_the_key(signed_vehicle, tmp_path):

@@ -36,6 +36,60 @@ def test_param_file_save_is_atomic_and_round_trips(tmp_path):
     assert not list(tmp_path.glob("*.tmp"))
 
 
+def _f32(x: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
+def test_values_are_written_so_that_they_read_back_to_the_same_float32(tmp_path):
+    from roboray.ground.link import fmt_value
+
+    # the shortest text that is the same float32, as Python writes it; integers without a point
+    assert [fmt_value(_f32(x), 9) for x in (0.1, 6.6, -0.0029, 4.0, 101325.0, 1e-7)] == [
+        "0.1", "6.6", "-0.0029", "4.0", "101325.0", "1e-07"]
+    assert (fmt_value(57600.0, 6), fmt_value(-3.0, 4), fmt_value(1.5, 1)) == ("57600", "-3", "1.5")
+    # the issue's case: 7 significant digits lose these two float32s' difference
+    a, b = _f32(0.1), _f32(0.100000009)
+    assert a != b and "%.7g" % a == "%.7g" % b and fmt_value(a, 9) != fmt_value(b, 9)
+    # every float32 of a sweep across the exponents survives a save and a load
+    values = [struct.unpack("<f", struct.pack("<I", bits))[0] for bits in range(0x00800001, 0x7F000000, 0x7F3A1)]
+    values += [-v for v in values[::7]]
+    named = {"P%d" % i: v for i, v in enumerate(values)}
+    f = tmp_path / "sweep.parm"
+    paramfile.save(str(f), ((k, fmt_value(v, 9)) for k, v in named.items()))
+    back = paramfile.load(str(f))
+    assert {k: _f32(v) for k, v in back.items()} == named
+    # and a file written from what was read is the same file, byte for byte
+    g = tmp_path / "again.parm"
+    paramfile.save(str(g), ((k, fmt_value(_f32(v), 9)) for k, v in back.items()))
+    assert g.read_bytes() == f.read_bytes()
+
+
+def test_pdef_is_ardupilots_apm_pdef_xml_for_every_firmware_parameter():
+    import xml.etree.ElementTree as ET
+
+    from roboray.firmware.app import PARAMS
+    from roboray.shared.param_meta import META, UNITS
+
+    text = paramfile.pdef_xml(PARAMS, META, UNITS)
+    assert text.startswith('<?xml version="1.0" encoding="utf-8"?>\n<!-- ')
+    root = ET.fromstring(text)
+    assert root.tag == "paramfile" and [c.tag for c in root] == ["vehicles", "libraries"]
+    group = root.find("vehicles/parameters")
+    assert group is not None and group.get("name") == "RoboRay"
+    params = {p.get("name"): p for p in group.findall("param")}
+    assert list(params) == ["RoboRay:" + d[0] for d in PARAMS]
+    for p in params.values():
+        assert p.get("humanName") and p.get("documentation") and p.get("user") in ("Standard", "Advanced")
+    fields = {f.get("name"): f.text for f in params["RoboRay:FS_GCS_TIMEOUT"].findall("field")}
+    assert fields == {"Range": "1.0 120.0", "Units": "s", "UnitText": "seconds"}
+    act = params["RoboRay:FS_LEAK_ENABLE"]
+    assert [(v.get("code"), v.text) for v in act.findall("values/value")] == [
+        ("0", "Off"), ("1", "Warn"), ("2", "Disarm"), ("3", "FAILSAFE mode")]
+    assert {f.get("name"): f.text for f in act.findall("field")} == {"Range": "0 3"}
+    baud = {f.get("name"): f.text for f in params["RoboRay:SERIAL_BAUD"].findall("field")}
+    assert baud == {"Range": "1200 921600", "ReadOnly": "True"}
+
+
 def _tlog(n: int) -> tuple[bytes, list[bytes]]:
     mav = pm.MAVLink(None, 1, 1)
     frames = [pm.MAVLink_attitude_message(i, 0.1 * i, 0.0, 0.0, 0.0, 0.0, 0.0).pack(mav) for i in range(n)]

@@ -159,7 +159,7 @@ def attack(device: str, restart: Callable[[], None], *ground_args: str) -> dict:
 
     # the legitimate ground still works, and the vehicle refused nothing of it
     r = ground("param", "set", PARAM, "9", *legit)
-    assert (r.returncode, r.stdout.strip()) == (0, "%s 9 (was 8)" % PARAM), r.stderr
+    assert (r.returncode, r.stdout.strip()) == (0, "%s 9.0 (was 8.0)" % PARAM), r.stderr
     a = Attacker(device)
     try:
         assert a.settled_counts(seen["before"]) == seen["before"]
@@ -180,8 +180,8 @@ def attack(device: str, restart: Callable[[], None], *ground_args: str) -> dict:
         a.close()
     # the legitimate ground, its clock behind or ahead of the vehicle's: works at once
     r = ground("param", "set", PARAM, "10", *legit)
-    assert r.returncode == 0 and r.stdout.startswith("%s 10 (was " % PARAM), r.stderr
-    assert "(was 7)" not in r.stdout                # the replay set nothing
+    assert r.returncode == 0 and r.stdout.startswith("%s 10.0 (was " % PARAM), r.stderr
+    assert "(was 7.0)" not in r.stdout                # the replay set nothing
     seen["was"] = r.stdout.strip()
     a = Attacker(device)
     try:
