@@ -158,11 +158,12 @@ def test_param_show_fetch_and_the_firmwares_whole_set(vehicle, tmp_path):
     assert sorted(json.loads(r.stdout)) == sorted("SERVO%d_%s" % (k, e) for k in range(1, 5) for e in ("MIN", "MAX"))
     # -v: units, range, values, description
     r = ground("param", "show", "FS_GCS_*", "-v", "--cached", env=env)
-    assert r.stdout.splitlines() == [
+    timeout = json.loads(ground("param", "show", "FS_GCS_TIMEOUT", "--cached", "--json", env=env).stdout)
+    assert r.stdout.splitlines() == [   # (another test may have changed the timeout)
         "FS_GCS_ENABLE    1",
         "    What the vehicle does when no ground heartbeat arrived for FS_GCS_TIMEOUT s (after one was seen).",
         "    range 0 .. 3; 0: Off, 1: Warn, 2: Disarm, 3: FAILSAFE mode",
-        "FS_GCS_TIMEOUT   5.0 s",
+        "FS_GCS_TIMEOUT   %r s" % timeout["FS_GCS_TIMEOUT"],
         "    Time without a heartbeat from the ground station before the link-loss failsafe acts.",
         "    range 1.0 .. 120.0"]
     r = ground("param", "show", "SERIAL_BAUD", "-v", "--cached", "--json", env=env)
