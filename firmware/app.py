@@ -103,6 +103,9 @@ LEAK_MS = 50
 BATTERY_MS = 100
 PARAMS_MS = 1000    # saves the parameters when they changed
 GC_MS = 300         # the collection (see the table above)
+#: The radio's unit of work at most on a Pico 2 (bench board: p99 1.6 ms,
+#: max 2.6 ms): less left in a slot and it waits for the next.
+LINK_BUDGET_US = 2600
 GC_PHASE = 9
 #: What a collection may take on a Pico 2 (measured 42 ms for the firmware
 #: alone, up to 76 ms in the twin, whose own objects share the heap), with
@@ -286,9 +289,12 @@ class Vehicle:
         """The scheduler with the vehicle's eight tasks."""
         s = Scheduler(self.clock, MAIN_MS, reset_cause=reset_cause, collect=False)
         s.add("nav", self.nav.step, MAIN_MS)
-        s.add("link", self.link.step, RADIO_MS)
-        s.add("depth", self.nav.depth_step, DEPTH_MS, phase=1)
+        # control right after the estimate it uses; the radio after both,
+        # on a budget: in a slot the compass step and the controller have
+        # filled it waits for the next (its bytes wait in the UART)
         s.add("control", self.control, CONTROL_MS)
+        s.add("depth", self.nav.depth_step, DEPTH_MS, phase=1)
+        s.add("link", self.link.step, RADIO_MS, budget_us=LINK_BUDGET_US)
         s.add("leak", self.leak.update, LEAK_MS, phase=3)
         s.add("battery", self.battery.update, BATTERY_MS, phase=5)
         s.add("params", self.store.service, PARAMS_MS, phase=7)

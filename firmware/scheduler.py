@@ -34,8 +34,8 @@ an overrun, so neither the overrun failsafe nor the watchdog's hunger
 takes a planned stall for a loop in trouble; the slots it spanned, and
 the one it ended in, are counted in ``skipped``, and the loop resumes on
 its grid at the next slot's start. That slot runs only the tasks due
-every slot (``deferred`` counts the others it passed over, which wait for
-their next turn): it also pays for the stall (the IMU's FIFO holds the
+every slot and on no budget (``deferred`` counts the others it passed
+over, which wait for their next turn; one on a budget runs in the next): it also pays for the stall (the IMU's FIFO holds the
 samples of the slots skipped, the radio's buffer their bytes), and with
 the 50 Hz controller on top it overran on the emulated Pico 2 (nav 5 ms
 after a collection's 40 ms, link 1.3 ms, control 3.2 ms). AP_Scheduler
@@ -110,6 +110,11 @@ class Scheduler:
         self._fns = []
         self._every = array("H", [0] * _MAX_TASKS)
         self._phase = array("H", [0] * _MAX_TASKS)
+        self._budget = array("l", [0] * _MAX_TASKS)
+        self._held = bytearray(_MAX_TASKS)   # deferred in its last due slot
+        # a slot's work ends by 95 % of the period, so the sleep and the
+        # clock's own jitter keep the next slot on time
+        self._limit_us = period_ms * 950
         #: Per task: runs, longest run (us), exceptions raised.
         self.runs = array("l", [0] * _MAX_TASKS)
         self.task_max_us = array("l", [0] * _MAX_TASKS)
@@ -145,8 +150,12 @@ class Scheduler:
         self._deadline = 0
         self._end_us = 0
 
-    def add(self, name, fn, period_ms, phase=0):
-        """Run ``fn()`` every ``period_ms`` (a multiple of the slot), ``phase`` slots in."""
+    def add(self, name, fn, period_ms, phase=0, budget_us=0):
+        """Run ``fn()`` every ``period_ms`` (a multiple of the slot), ``phase`` slots in.
+
+        ``budget_us``: what a call may take; a task with one waits for the
+        next slot when the slot's time so far leaves it less (never twice
+        in a row), as AP_Scheduler runs a task only if it fits."""
         if self._n >= _MAX_TASKS:
             raise ValueError("scheduler holds at most %d tasks" % _MAX_TASKS)
         every = period_ms * 1000 // self.period_us
@@ -166,6 +175,7 @@ class Scheduler:
         self._fns.append(fn)
         self._every[i] = every
         self._phase[i] = phase
+        self._budget[i] = budget_us
         self._n = i + 1
         return i
 
@@ -219,10 +229,22 @@ class Scheduler:
         light = self._after_stall
         self._after_stall = False
         every = self._every
+        budget = self._budget
+        held = self._held
         for i in self._plan[self.slot % self._plan_slots]:
-            if light and every[i] != 1:
+            b = budget[i]
+            if light and (every[i] != 1 or b):
+                # (a task on a budget runs in the next slot, whatever it leaves)
+                if b:
+                    held[i] = 1
                 self.deferred += 1
                 continue
+            if b:
+                if (((t0 - start + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF) + b > self._limit_us and not held[i]:
+                    held[i] = 1
+                    self.deferred += 1
+                    continue
+                held[i] = 0
             try:
                 fns[i]()
             except Exception as e:  # a failing task must not stop the loop

@@ -44,7 +44,7 @@ def mp(board):
 
 def test_the_loop_runs_eight_tasks_and_the_estimator_settles_at_rest(mp):
     bench.build(mp, PARAMS)
-    assert mp.eval("v.sched.names") == ["nav", "link", "depth", "control", "leak", "battery", "params", "gc"]
+    assert mp.eval("v.sched.names") == ["nav", "control", "depth", "link", "leak", "battery", "params", "gc"]
     mp.exec("v.sched.run(1200)")
     assert mp.eval("v.nav.valid(0x30)") is True            # attitude and depth valid
     # 101800 Pa: the port 48.4 mm deep, the centre of buoyancy 23.1 mm above it
@@ -101,10 +101,12 @@ def test_a_velocity_set_point_from_the_ground_reaches_the_endpoint(mp):
 
 def test_a_reboot_from_the_ground_saves_and_resets_the_board(mp):
     bench.build(mp, PARAMS)
-    mp.exec("v.sched.run(10)\nv.params.set_by_name('SR_STATUS', 2.0)\nv.link.ep.reboot_requested = True\n"
+    mp.exec("v.sched.run(10)\nsaves = v.store.saves\nv.params.set_by_name('SR_STATUS', 2.0)\n"
+            "v.link.ep.reboot_requested = True\n"
             "try:\n    v.link.step()\nexcept machine.BoardReset as e:\n    cause = e.cause\n")
     assert mp.eval("cause") == mp.eval("machine.WDT_RESET")
-    assert mp.eval("v.store.saves") == 1                     # the change was saved before the reset
+    # the change was saved before the reset (whatever the first slots saved)
+    assert mp.eval("v.store.saves - saves") == 1
 
 
 def test_an_unsupported_mounting_stops_the_start_with_its_reason(mp):

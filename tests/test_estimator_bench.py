@@ -31,7 +31,7 @@ def test_bench_reports_the_errors_and_draws_the_plot(tmp_path):
     (["--seeds", "-2"], "must be >= 0"),
     (["--seed", "x"], "is not a whole number"),
     (["--plot", "out.pdf"], "must name a .png file"),
-    (["--source", "wind-tunnel"], "--source 'wind-tunnel' unknown; known: dynamics, kinematic"),
+    (["--source", "wind-tunnel"], "argument --source: invalid choice: 'wind-tunnel' (choose from 'dynamics', 'kinematic')"),
 ])
 def test_bad_arguments_are_one_line_usage_errors(args, message, capsys):
     from roboray.sim.cli import main

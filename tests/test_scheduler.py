@@ -180,3 +180,17 @@ def test_a_planned_stall_resumes_on_the_grid_with_a_slot_of_the_every_slot_tasks
     assert mp.eval("[s.overruns, s.stalls, s.skipped, s.deferred]") == [0, 1, 3, 1]
     assert mp.eval("s.slot") == 15
     assert mp.eval("stamps()") == [10, 30, 85, 110, 130]
+
+
+def test_a_task_on_a_budget_waits_for_the_next_slot_when_it_would_not_fit(mp):
+    # a 10 ms slot ends by 9.5 ms: after 7 ms of work a task that may take
+    # 3 ms waits for the next slot, and runs there whatever it leaves
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "s.add('heavy', busy(7000), 10)\ns.add('radio', stamp, 10, budget_us=3000)\n"
+            "s.run(4)")
+    assert mp.eval("s.deferred") == 2 and mp.eval("s.runs[1]") == 2
+    assert mp.eval("stamps()") == [17, 37]          # every other slot, after the heavy task
+    assert mp.eval("s.overruns") == 0
+    mp.exec("s2 = Scheduler(vclock, 10)\n"
+            "s2.add('light', busy(2000), 10)\ns2.add('radio', nothing, 10, budget_us=3000)\ns2.run(5)")
+    assert mp.eval("[s2.deferred, s2.runs[1]]") == [0, 5]
