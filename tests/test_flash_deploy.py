@@ -39,7 +39,20 @@ def flash(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
 
 
 def snapshot(fs_dir: Path) -> dict[str, bytes]:
-    return {p.relative_to(fs_dir).as_posix(): p.read_bytes() for p in sorted(fs_dir.rglob("*")) if p.is_file()}
+    """The board's files as the host sees them. The virtual board's process
+    may still be finishing a rename of the deploy's last atomic write (a
+    ``.~new`` file) when the host lists the folder, on a loaded machine:
+    such a file, or one gone between listing and reading, is not kept."""
+    out = {}
+    for p in sorted(fs_dir.rglob("*")):
+        if p.name.endswith(".~new"):
+            continue
+        try:
+            if p.is_file():
+                out[p.relative_to(fs_dir).as_posix()] = p.read_bytes()
+        except FileNotFoundError:
+            continue
+    return out
 
 
 def board_exec(device: str, code: str) -> str:
