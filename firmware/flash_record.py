@@ -36,7 +36,7 @@ which is how the tests cut the power at every step.
 
 import hashlib
 
-from roboray.firmware.param_store import Files
+from roboray.firmware.param_store import Files, load_file, replace_file
 
 _MAGIC = b"RRFR"
 _FORMAT = 1
@@ -104,39 +104,10 @@ class FlashRecord:
         self.saves = 0
         self.expect_delay = None
 
-    def _read(self, path):
-        fs = self.fs
-        if not fs.exists(path):
-            return None
-        try:
-            f = fs.open(path, "rb")
-        except OSError:
-            return None
-        try:
-            return f.read()
-        finally:
-            f.close()
-
     def load(self):
         """The payload last saved (bytes), or None when no whole record is there."""
-        fs = self.fs
-        data, why = decode(self._read(self.path))
-        self.problem = why
-        if data is not None:
-            self.source = "main"
-            if fs.exists(self.tmp):
-                fs.remove(self.tmp)     # an unfinished save's: main won
-            return data
-        data, _ = decode(self._read(self.tmp))
-        if data is not None:
-            # a save cut after its check: the new record is whole; finish it
-            self.source = "tmp"
-            if fs.exists(self.path):
-                fs.remove(self.path)
-            fs.rename(self.tmp, self.path)
-            return data
-        data, _ = decode(self._read(self.bak))
-        self.source = "backup" if data is not None else "none"
+        data, source, self.problem = load_file(self.fs, self.path, decode)
+        self.source = source if source is not None else "none"
         return data
 
     def save(self, data):
@@ -144,18 +115,5 @@ class FlashRecord:
         image = encode(data)
         if self.expect_delay is not None:
             self.expect_delay(SAVE_STALL_MS)
-        fs = self.fs
-        f = fs.open(self.tmp, "wb")
-        try:
-            f.write(image)
-        finally:
-            f.close()
-        if self._read(self.tmp) != image:
-            fs.remove(self.tmp)
-            raise OSError("record save: %s read back different from what was written" % self.tmp)
-        if fs.exists(self.bak):
-            fs.remove(self.bak)
-        if fs.exists(self.path):
-            fs.rename(self.path, self.bak)
-        fs.rename(self.tmp, self.path)
+        replace_file(self.fs, self.path, image, "record save")
         self.saves += 1

@@ -76,6 +76,66 @@ class Files:
             return False
 
 
+def read_file(fs, path):
+    """The bytes of ``path`` on ``fs``, or None when it is missing or will not open."""
+    if not fs.exists(path):
+        return None
+    try:
+        f = fs.open(path, "rb")
+    except OSError:
+        return None
+    try:
+        return f.read()
+    finally:
+        f.close()
+
+
+def load_file(fs, path, decode):
+    """``(value, source, problem)`` of the whole file at ``path``: main,
+    else a whole ``.tmp`` (a save cut after its check: it finishes that
+    save), else ``.bak``; ``source`` is ``SOURCE_MAIN``/``TMP``/``BACKUP``
+    or None (nothing whole), ``problem`` why main was not used (or None).
+    ``decode(image)`` gives ``(value, None)`` or ``(None, reason)``. A
+    leftover ``.tmp`` beside a good main file is an unfinished save's and is
+    removed."""
+    tmp = path + ".tmp"
+    value, why = decode(read_file(fs, path))
+    if value is not None:
+        if fs.exists(tmp):
+            fs.remove(tmp)  # an unfinished save's; the main file won
+        return value, SOURCE_MAIN, None
+    value, _ = decode(read_file(fs, tmp))
+    if value is not None:
+        # A save was cut after its check: the new file is whole. Finish it.
+        if fs.exists(path):
+            fs.remove(path)
+        fs.rename(tmp, path)
+        return value, SOURCE_TMP, why
+    value, _ = decode(read_file(fs, path + ".bak"))
+    return value, (SOURCE_BACKUP if value is not None else None), why
+
+
+def replace_file(fs, path, image, what):
+    """Put ``image`` at ``path`` as the table above says: ``.tmp`` written,
+    read back and compared, main moved to ``.bak``, ``.tmp`` renamed into
+    place. OSError (naming ``what``) when flash fails or reads back wrong."""
+    tmp = path + ".tmp"
+    bak = path + ".bak"
+    f = fs.open(tmp, "wb")
+    try:
+        f.write(image)
+    finally:
+        f.close()
+    if read_file(fs, tmp) != image:
+        fs.remove(tmp)
+        raise OSError("%s: %s read back different from what was written" % (what, tmp))
+    if fs.exists(bak):
+        fs.remove(bak)
+    if fs.exists(path):
+        fs.rename(path, bak)
+    fs.rename(tmp, path)
+
+
 def encode(table):
     """The file image of ``table``'s current values."""
     has_flags = hasattr(table, "flags")
@@ -183,19 +243,6 @@ class ParamStore:
         self.expect_delay = None
 
     # ---------------------------------------------------------------- read
-    def _read(self, path):
-        fs = self.fs
-        if not fs.exists(path):
-            return None
-        try:
-            f = fs.open(path, "rb")
-        except OSError:
-            return None
-        try:
-            return f.read()
-        finally:
-            f.close()
-
     def _apply(self, entries):
         table = self.table
         self.loaded = self.unknown = self.rejected = 0
@@ -210,31 +257,13 @@ class ParamStore:
 
     def load(self):
         """Fill the table from flash (main, tmp, backup, defaults); the source."""
-        fs = self.fs
-        entries, why = decode(self._read(self.path))
-        self.problem = why
+        entries, source, self.problem = load_file(self.fs, self.path, decode)
         if entries is not None:
-            self.source = SOURCE_MAIN
+            self.source = source
             self._apply(entries)
-            if fs.exists(self.tmp):
-                fs.remove(self.tmp)  # an unfinished save's; the main file won
         else:
-            entries, _ = decode(self._read(self.tmp))
-            if entries is not None:
-                # A save was cut after its check: the new set is whole. Finish it.
-                self.source = SOURCE_TMP
-                self._apply(entries)
-                if fs.exists(self.path):
-                    fs.remove(self.path)
-                fs.rename(self.tmp, self.path)
-            else:
-                entries, _ = decode(self._read(self.bak))
-                if entries is not None:
-                    self.source = SOURCE_BACKUP
-                    self._apply(entries)
-                else:
-                    self.source = SOURCE_DEFAULTS
-                    self.loaded = self.unknown = self.rejected = 0
+            self.source = SOURCE_DEFAULTS
+            self.loaded = self.unknown = self.rejected = 0
         self._saved_version = getattr(self.table, "version", 0)
         return self.source
 
@@ -254,21 +283,7 @@ class ParamStore:
     # --------------------------------------------------------------- write
     def save(self):
         """Write the table's values; raises OSError when flash fails."""
-        fs = self.fs
-        data = encode(self.table)
-        f = fs.open(self.tmp, "wb")
-        try:
-            f.write(data)
-        finally:
-            f.close()
-        if self._read(self.tmp) != data:
-            fs.remove(self.tmp)
-            raise OSError("parameter save: %s read back different from what was written" % self.tmp)
-        if fs.exists(self.bak):
-            fs.remove(self.bak)
-        if fs.exists(self.path):
-            fs.rename(self.path, self.bak)
-        fs.rename(self.tmp, self.path)
+        replace_file(self.fs, self.path, encode(self.table), "parameter save")
         self.saves += 1
         self._saved_version = getattr(self.table, "version", 0)
 

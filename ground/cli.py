@@ -383,15 +383,7 @@ def do_param(args: argparse.Namespace) -> None:
         if not args.cached:
             _cache_params(args, values)
         _param_show(args, values, rest[0] if rest else "*")
-    elif action == "fetch" and rest:
-        name = rest[0].upper()
-        link = _connect(args)
-        try:
-            value, ptype = link.param_get(name)
-        finally:
-            link.close()
-        emit(args, {name: value}, lambda r: "%s %s" % (name, fmt_value(value, ptype)))
-    elif action == "fetch":
+    elif action == "fetch" and not rest:
         t0 = time.monotonic()
         values = _fetch_all(args)
         _cache_params(args, values)
@@ -400,7 +392,7 @@ def do_param(args: argparse.Namespace) -> None:
              lambda r: "received %d parameters in %.1f s" % (len(values), took))
     elif action == "pdef":
         _param_pdef(args, rest[0])
-    elif action == "get":
+    elif action == "get" or action == "fetch":   # fetch NAME: MAVProxy's one-value fetch
         name = rest[0].upper()
         link = _connect(args)
         try:

@@ -19,6 +19,7 @@ import logging
 from typing import Iterable, Optional
 
 from roboray.tools.cli import CliError
+from roboray.tools.flash.ports import listing, only_one
 
 log = logging.getLogger("roboray.ground")
 
@@ -31,15 +32,6 @@ RADIO_USB_IDS = (
 
 class NoRadioFound(CliError):
     """``--master auto`` found no radio, or several to choose from."""
-
-
-def describe(port) -> str:
-    """One line naming a port: device, product, USB ids, serial number."""
-    ids = "[%04x:%04x]" % (port.vid or 0, port.pid or 0)
-    parts = [port.device, port.product or port.description or "", ids]
-    if port.serial_number:
-        parts.append("serial " + port.serial_number)
-    return " ".join(p for p in parts if p and p != "n/a")
 
 
 def candidates(ports: Iterable) -> list:
@@ -55,18 +47,8 @@ def pick(master: str, ports: Optional[Iterable] = None) -> str:
     """
     if master != "auto":
         return master
-    if ports is None:
-        from serial.tools.list_ports import comports
-
-        ports = comports()
-    found = candidates(ports)
-    if not found:
-        raise NoRadioFound(
-            "no radio found: no serial port has a SiK radio's USB ids (%s); plug the radio in, or give its port "
-            "with --master (roboray-ground ports lists them)"
-            % ", ".join("%04x:%04x" % (v, p) for v, p, _ in RADIO_USB_IDS))
-    if len(found) > 1:
-        raise NoRadioFound("%d radios found, choose one with --master: %s"
-                           % (len(found), "; ".join(describe(p) for p in found)))
-    log.info("using %s", describe(found[0]))
-    return found[0].device
+    return only_one(
+        candidates(listing(ports)), "radio", "--master", NoRadioFound,
+        "no radio found: no serial port has a SiK radio's USB ids (%s); plug the radio in, or give its port "
+        "with --master (roboray-ground ports lists them)" % ", ".join("%04x:%04x" % (v, p) for v, p, _ in RADIO_USB_IDS),
+        log)

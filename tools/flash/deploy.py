@@ -224,6 +224,12 @@ def deploy(board: Board, build: Build, dry_run: bool = False, rehash: bool = Fal
     result["verified"] = True
     if survey["manifest"] is None or survey["manifest"].encode() != manifest_bytes:
         board.put(manifest.BOARD_PATH, manifest_bytes, manifest.entry(manifest_bytes)["sha256"])
+    return finish(board, build, result, sent, t0, reset, start_timeout_s)
+
+
+def finish(board: Board, build: Build, result: dict, sent: int, t0: float, reset: bool,
+           start_timeout_s: float) -> dict:
+    """A deployment's last figures, after the board restarts into the build when ``reset``."""
     result["bytes_sent"] = sent
     result["seconds_copying"] = time.monotonic() - t0
     if reset:

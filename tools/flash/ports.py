@@ -40,19 +40,30 @@ def pick(port: str, ports: Optional[Iterable] = None) -> str:
     """
     if port != "auto":
         return port
+    return only_one(
+        candidates(listing(ports)), "board", "--port", NoBoardFound,
+        "no board found: no serial port has the Raspberry Pi USB vendor id %04x "
+        "(connect the Pico 2 with a data cable, check it runs MicroPython, or pass --port)" % RASPBERRY_PI_VID,
+        log)
+
+
+def listing(ports: Optional[Iterable] = None) -> Iterable:
+    """``ports``, or pyserial's listing of this machine's serial ports."""
     if ports is None:
         from serial.tools.list_ports import comports
 
         ports = comports()
-    found = candidates(ports)
+    return ports
+
+
+def only_one(found: list, what: str, option: str, error: type, none: str, logger: logging.Logger) -> str:
+    """The device of the one port in ``found``; ``error(none)`` when there is
+    none, ``error`` listing them when there are several ``what``s (choose
+    with ``option``)."""
     if not found:
-        raise NoBoardFound(
-            "no board found: no serial port has the Raspberry Pi USB vendor id %04x "
-            "(connect the Pico 2 with a data cable, check it runs MicroPython, or pass --port)"
-            % RASPBERRY_PI_VID
-        )
+        raise error(none)
     if len(found) > 1:
-        raise NoBoardFound("%d boards found, choose one with --port: %s"
-                           % (len(found), "; ".join(describe(p) for p in found)))
-    log.info("using %s", describe(found[0]))
+        raise error("%d %ss found, choose one with %s: %s"
+                    % (len(found), what, option, "; ".join(describe(p) for p in found)))
+    logger.info("using %s", describe(found[0]))
     return found[0].device

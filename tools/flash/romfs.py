@@ -43,6 +43,7 @@ from pathlib import Path
 from . import manifest
 from .board import Board
 from .build import Build
+from .deploy import finish
 from .errors import FlashError, HashMismatch
 
 log = logging.getLogger("roboray.flash")
@@ -222,11 +223,4 @@ def deploy_romfs(board: Board, build: Build, reset: bool = True, start_timeout_s
         board.put(path, data, build.files[path]["sha256"])
         sent += len(data)
     result["verified"] = True
-    result["bytes_sent"] = sent
-    result["seconds_copying"] = time.monotonic() - t0
-    if reset:
-        start = board.restart(build.banner, timeout_s=start_timeout_s)
-        result.update({"started": True, "app_state": start["state"], "app_output": start["output"]})
-    result["wire_bytes"] = board.bytes_written
-    result["seconds"] = time.monotonic() - t0
-    return result
+    return finish(board, build, result, sent, t0, reset, start_timeout_s)
