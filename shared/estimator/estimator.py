@@ -161,9 +161,8 @@ class Estimator:
         #: depth sensor. A refusal after the filter coasted without the IMU
         #: (``_coast``) is not: the prediction, not the pressure, is in doubt.
         self.depth_blamed = 0
-        #: Pressures too old to fuse when their turn came (after a stall),
-        #: and those fused.
-        self.depth_stale = 0
+        #: Pressures fused (a stale one, older than ``_DEPTH_LAG_MAX_US``
+        #: when its turn came, is neither fused nor refused).
         self.depth_used = 0
 
         # ----- configuration
@@ -529,7 +528,6 @@ class Estimator:
             # taken before a stall ended: its back-projection by the
             # present speed would cross whatever the stall hid (a bottom
             # met, a bounce); the next pressure is 20 ms away
-            self.depth_stale += 1
             return
         vert.propagate(self._t_imu)
         used = vert.update(z, lever, n * 1e-6)
