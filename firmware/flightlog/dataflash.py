@@ -125,18 +125,28 @@ class Clock:
 
 
 class Writer:
-    """Records packed into one bytearray of ``size`` bytes, made here once.
+    """Records packed into one bytearray of ``size`` bytes, made here once,
+    used as a ring that keeps each record whole (a "bip buffer"): a record
+    that does not fit before the end starts again at the front, behind the
+    oldest bytes not yet taken away.
 
     ``reserve(n)`` gives the offset of the next ``n``-byte record (and
     counts it as written) or -1 when it does not fit; ``dropped`` counts
-    the refusals. ``stamp(clock)`` takes the time the next records carry
-    as ``t0 .. t3`` (``Record.pack``'s fourth to seventh arguments)."""
+    the refusals: a full buffer loses new records, never old ones.
+    ``stamp(clock)`` takes the time the next records carry as
+    ``t0 .. t3`` (``Record.pack``'s fourth to seventh arguments).
+    ``pending()`` is the bytes waiting; ``chunk(most)`` gives ``(offset,
+    count)`` of the oldest contiguous run of at most ``most`` of them and
+    ``taken(count)`` lets them go once they are safe on flash."""
 
     def __init__(self, size):
         self.buf = bytearray(size)
         self.size = size
-        self.used = 0
+        self.head = 0       # where the next record goes
+        self.tail = 0       # the oldest byte not yet taken
+        self.wrap = -1      # where the data before a wrap ends; -1: no wrap
         self.dropped = 0
+        self.written = 0    # bytes reserved since the start
         self.t0 = 0
         self.t1 = 0
         self.t2 = 0
@@ -151,19 +161,53 @@ class Writer:
         self.t3 = hi >> 8
 
     def reserve(self, n):
-        o = self.used
-        if o + n > self.size:
-            self.dropped += 1
-            return -1
-        self.used = o + n
-        return o
+        h = self.head
+        if self.wrap < 0:
+            if h + n <= self.size:
+                self.head = h + n
+                self.written += n
+                return h
+            if n < self.tail:      # the front has room: wrap (head never meets tail from behind)
+                self.wrap = h
+                self.head = n
+                self.written += n
+                return 0
+        elif h + n < self.tail:
+            self.head = h + n
+            self.written += n
+            return h
+        self.dropped += 1
+        return -1
 
-    def clear(self):
-        """Forget what was written (it has gone to flash)."""
-        self.used = 0
+    def pending(self):
+        if self.wrap < 0:
+            return self.head - self.tail
+        return self.wrap - self.tail + self.head
 
     def free(self):
-        return self.size - self.used
+        return self.size - self.pending()
+
+    def chunk(self, most):
+        t = self.tail
+        end = self.head if self.wrap < 0 else self.wrap
+        n = end - t
+        return t, (n if n < most else most)
+
+    def taken(self, n):
+        t = self.tail + n
+        if self.wrap >= 0 and t >= self.wrap:
+            t = 0
+            self.wrap = -1
+        self.tail = t
+        if self.wrap < 0 and t == self.head:
+            self.tail = 0      # empty: start at the front again
+            self.head = 0
+
+    def clear(self):
+        """Forget everything waiting (a new log)."""
+        self.head = 0
+        self.tail = 0
+        self.wrap = -1
 
     # -- the header: once a log, not in flight ---------------------------
 
