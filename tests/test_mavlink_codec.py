@@ -6,7 +6,7 @@ import random
 import struct
 
 import pytest
-from pymavlink.dialects.v20 import common as pm
+from pymavlink.dialects.v20 import development as pm  # common.xml and the standard modes
 
 from roboray.shared.mavlink import crc
 from roboray.shared.mavlink import messages as M

@@ -7,7 +7,7 @@ import random
 import struct
 from typing import Any
 
-from pymavlink.dialects.v20 import common as pm
+from pymavlink.dialects.v20 import development as pm  # common.xml and the standard modes
 
 from roboray.shared.mavlink import messages as M
 from roboray.shared.mavlink.frame import Writer

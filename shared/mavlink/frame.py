@@ -14,7 +14,7 @@ only and are never signed.
 """
 
 from roboray.shared.mavlink import crc
-from roboray.shared.mavlink.messages import WIRE
+from roboray.shared.mavlink.messages import WIRE, wire_high
 
 try:
     from micropython import const
@@ -36,7 +36,7 @@ IFLAG_SIGNED = const(0x01)
 _W_CRC_EXTRA = const(0)
 _W_MIN_LEN = const(1)
 _W_MAX_LEN = const(2)
-_W_IDS = const(257)      # messages.WIRE_IDS: ids 0-255 and SETUP_SIGNING (256)
+_W_DENSE = const(256)    # messages.WIRE_DENSE: ids indexed directly; above, wire_high()
 #: Longest frame: MAVLink 2 header, 255-byte payload, CRC, signature.
 FRAME_MAX = const(280)
 
@@ -81,8 +81,8 @@ class Writer:
 
         ``seq`` overrides the sequence number (tests); by default it counts up.
         """
-        w = 3 * msgid
-        if not 0 <= msgid < _W_IDS or not WIRE[w + _W_MAX_LEN] or (self.mavlink1 and msgid > 255):
+        w = 3 * msgid if 0 <= msgid < _W_DENSE else wire_high(msgid)
+        if w < 0 or not WIRE[w + _W_MAX_LEN] or (self.mavlink1 and msgid > 255):
             raise KeyError(msgid)   # (MAVLink 1 carries ids 0-255 only)
         b = self.buf
         signed = False

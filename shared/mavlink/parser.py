@@ -58,7 +58,7 @@ import sys
 from array import array
 
 from roboray.shared.mavlink import crc
-from roboray.shared.mavlink.messages import WIRE
+from roboray.shared.mavlink.messages import WIRE, wire_high
 
 try:
     from micropython import const
@@ -82,7 +82,7 @@ _SOURCES = const(8)
 _W_CRC_EXTRA = const(0)
 _W_MIN_LEN = const(1)
 _W_MAX_LEN = const(2)
-_W_IDS = const(257)      # messages.WIRE_IDS: ids 0-255 and SETUP_SIGNING (256)
+_W_DENSE = const(256)    # messages.WIRE_DENSE: ids indexed directly; above, wire_high()
 
 #: ``Parser.sig_status`` of the last frame
 SIG_NONE = const(0)       # not signed
@@ -171,8 +171,8 @@ class Parser:
                     # straight away; anything else is left to _run (which
                     # checks the same and counts).
                     msgid = data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16)
-                    w = 3 * msgid
-                    if msgid < _W_IDS and WIRE[w + _W_MAX_LEN]:
+                    w = 3 * msgid if msgid < _W_DENSE else wire_high(msgid)
+                    if w >= 0 and WIRE[w + _W_MAX_LEN]:
                         plen = data[i + 1]
                         flags = data[i + 2]
                         k = _HEADER_V2 + 2 + plen + (_SIGNATURE_LEN if flags & 1 else 0)
@@ -314,8 +314,8 @@ class Parser:
                     hdr = _HEADER_V1
                     flags = 0
                     msgid = buf[5]
-                w = 3 * msgid
-                if msgid >= _W_IDS or not WIRE[w + _W_MAX_LEN]:
+                w = 3 * msgid if msgid < _W_DENSE else wire_high(msgid)
+                if w < 0 or not WIRE[w + _W_MAX_LEN]:
                     self.unknown += 1
                     self._reject()
                     continue
@@ -337,7 +337,7 @@ class Parser:
             end = hdr + plen
             # CRC_EXTRA in the checksum's place for one pass, then the byte back
             lo = buf[end]
-            buf[end] = WIRE[3 * msgid + _W_CRC_EXTRA]
+            buf[end] = WIRE[(3 * msgid if msgid < _W_DENSE else wire_high(msgid)) + _W_CRC_EXTRA]
             c = _crc(_CRC_INIT, buf, 1, end + 1)
             buf[end] = lo
             if lo != (c & 0xFF) or buf[end + 1] != (c >> 8):
@@ -395,7 +395,8 @@ class Parser:
                 return -1
             if n > s + 8:
                 m = buf[s + 7] | (buf[s + 8] << 8)
-                if m >= _W_IDS or not WIRE[3 * m + _W_MAX_LEN]:
+                w = 3 * m if m < _W_DENSE else wire_high(m)
+                if w < 0 or not WIRE[w + _W_MAX_LEN]:
                     return -1
         else:
             hdr = _HEADER_V1
@@ -405,7 +406,8 @@ class Parser:
             self._need = s + hdr
             return 0
         if hdr == _HEADER_V2:
-            w = 3 * (buf[s + 7] | (buf[s + 8] << 8))
+            m = buf[s + 7] | (buf[s + 8] << 8)
+            w = 3 * m if m < _W_DENSE else wire_high(m)
         else:
             w = 3 * buf[s + 5]
         plen = buf[s + 1]
