@@ -5,7 +5,8 @@
 - Every foreseeable failure is one line on stderr, ``prog: error: ...``,
   never a traceback (``--debug`` shows it).
 - Commands that report figures accept ``--json`` and then print exactly one
-  JSON document on stdout; log lines always go to stderr.
+  JSON document on stdout, its figures at their meaningful digits
+  (``tools/jsonround.py``); log lines always go to stderr.
 """
 
 from __future__ import annotations
@@ -145,7 +146,9 @@ def check_target(north: float, east: float, depth: float, release_depth: float =
 def emit(args: argparse.Namespace, result: Any, text: Optional[Callable[[Any], str]] = None) -> None:
     """Print a command's result: one JSON document with ``--json``, else text."""
     if getattr(args, "json", False):
-        json.dump(result, sys.stdout, indent=2, sort_keys=True, default=_jsonable)
+        from roboray.tools.jsonround import rounded
+
+        json.dump(rounded(result), sys.stdout, indent=2, sort_keys=True, default=_jsonable)
         sys.stdout.write("\n")
     elif text is not None:
         sys.stdout.write(text(result).rstrip("\n") + "\n")
