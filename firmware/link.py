@@ -18,6 +18,8 @@ What the ground sends reaches the rest of the firmware through it:
   with the velocity bits of ``type_mask`` clear) lands in
   ``velocity_ned``, counted in ``velocity_count``; the endpoint itself
   handles only position setpoints, so ``VehicleEndpoint`` adds this;
+- a landing in TARGET (``firmware/landing.py``) is the mission's target
+  reached: MISSION_ITEM_REACHED (``shared/mavlink/mission.py``);
 - arm, disarm and mode commands go to ``shared/modes.py`` (the endpoint's
   doing, through the arming and mode checks of ``firmware/failsafe.py``);
 - a reboot (PREFLIGHT_REBOOT_SHUTDOWN, refused while armed) saves the
@@ -43,6 +45,7 @@ import struct
 from array import array
 
 from roboray.firmware.flash_record import FlashRecord
+from roboray.firmware.landing import Touchdown
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.endpoint import Endpoint, ticks_diff
 from roboray.shared.mavlink.signing import Signing
@@ -221,6 +224,7 @@ class Link:
         self.ep = VehicleEndpoint(radio, params, modes, telemetry, self.signing, on_fix=self._on_fix,
                                   on_refresh=reporter.refresh)
         self.ep.on_setup_signing = self.keeper.save
+        self.touchdown = Touchdown(nav, modes)
         try:    # AUTOPILOT_VERSION says which build this is
             from roboray.firmware import build_info
             self.ep.set_version(build_info.VERSION, build_info.REVISION)
@@ -242,6 +246,8 @@ class Link:
                 ep.slot_max_us = w
         now = self._clock.ticks_ms()
         ep.update(now)
+        if self.touchdown.update(now):
+            ep.mission.reached()
         self.keeper.service(now, self.modes.armed)
         if ep.reboot_requested:
             ep.reboot_requested = False

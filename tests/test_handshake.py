@@ -74,10 +74,11 @@ def test_autopilot_version_by_request_message_and_by_capabilities(gcs):
         caps = v.capabilities
         for bit in (pm.MAV_PROTOCOL_CAPABILITY_MAVLINK2, pm.MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
                     pm.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT,
-                    pm.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED):
+                    pm.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED,
+                    pm.MAV_PROTOCOL_CAPABILITY_MISSION_INT, pm.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT):
             assert caps & bit
-        # no mission protocol, no FTP, no global setpoints: not claimed
-        for bit in (pm.MAV_PROTOCOL_CAPABILITY_MISSION_INT, pm.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT,
+        # no fence or rally points, no FTP, no global setpoints: not claimed
+        for bit in (pm.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE, pm.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY,
                     pm.MAV_PROTOCOL_CAPABILITY_FTP, pm.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT):
             assert not caps & bit
         # no build_info on the test interpreter: version unknown, said as 0

@@ -14,8 +14,9 @@ Handled:
   PARAM_REQUEST_READ (by index or name), PARAM_SET (type and range enforced
   by the ``ParamTable``; the PARAM_VALUE echo carries the value in force, so
   a refused set shows as an unchanged value, and a STATUSTEXT says why);
-- COMMAND_LONG, answered with COMMAND_ACK: COMPONENT_ARM_DISARM,
-  DO_SET_MODE (custom mode = ``shared/modes.py`` number), DO_REPOSITION
+- COMMAND_LONG, answered with COMMAND_ACK: COMPONENT_ARM_DISARM (a flag:
+  the mode stays), DO_SET_MODE (custom mode: ``shared/modes.CUSTOM``,
+  ArduSub's numbers), DO_SET_STANDARD_MODE (MISSION: TARGET), DO_REPOSITION
   (our convention, as COMMAND_LONG has no frame: param5 north, param6 east,
   param7 down in metres, MAV_FRAME_LOCAL_NED; NaN keeps a coordinate),
   PREFLIGHT_REBOOT_SHUTDOWN (param1 = 1 reboots, refused while armed),
@@ -30,7 +31,15 @@ Handled:
   HOME_POSITION, the release point (GET_HOME_POSITION, REQUEST_MESSAGE
   242); COMMAND_ACK results are ArduPilot's (a refusal FAILED, arming an
   armed vehicle ACCEPTED); a STATUSTEXT over 50 bytes goes in chunks;
+- the standard modes protocol, for ground stations that take the mode
+  names from the vehicle: AVAILABLE_MODES (REQUEST_MESSAGE 435; param2 0:
+  every mode, one a turn, else the mode of that index from 1) and
+  CURRENT_MODE (every other heartbeat, 0.5 Hz, and at once on a mode
+  change; REQUEST_MESSAGE 436), with MAV_STANDARD_MODE where one matches;
 - SET_POSITION_TARGET_LOCAL_NED (position bits) sets the target too;
+- the mission protocol (``mission.py``, ``mission``): the landing target
+  as a mission (home and one NAV_LAND) to download, upload and clear;
+  MISSION_CURRENT goes with the status stream;
 - ATT_POS_MOCAP: the position fix goes into ``fix`` ([x, y, z, qw, qx,
   qy, qz], m and NED), ``fix_time_us`` and ``fix_count`` for the estimator,
   and to ``on_fix(fix)`` if given;
@@ -78,6 +87,7 @@ from roboray.shared import modes as M
 from roboray.shared import quat
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.frame import Writer
+from roboray.shared.mavlink.mission import Mission
 from roboray.shared.mavlink.parser import Parser
 from roboray.shared.params import ERRORS
 
@@ -124,12 +134,16 @@ _F_WING2 = const(0x2000)
 _F_WING3 = const(0x4000)
 _F_WING4 = const(0x8000)
 _F_BATTERY = const(0x10000)
+_F_CURRENT_MODE = const(0x20000)
+_F_AVAILABLE = const(0x40000)     # AVAILABLE_MODES, the next of those asked for
+_F_MISSION = const(0x20000)       # MISSION_CURRENT
 # A stream's telemetry is refreshed (on_refresh) with its first frame, which
 # has its lowest bit: the others of the stream go out after it and use the same.
 # each stream's frames, by stream number
-_STREAM_FRAMES = (0x6, 0x1C0, 0x600, 0xF800, 0x10000, 0x38)
+_STREAM_FRAMES = (0x6, 0x1C0, 0x600, 0xF800, 0x10000, 0x20038)
 
 _WING_NAMES = (b"wing1_deg", b"wing2_deg", b"wing3_deg", b"wing4_deg")
+_MODE_NAMES = tuple(n.encode() for n in M.NAMES)   # AVAILABLE_MODES' mode_name, by mode
 _DEPTH_NAME = b"depth_m"
 _SLOT_NAME = b"SLOT_MAX"          # longest loop slot (us) since the last report
 # SLOT_MAX goes as NAMED_VALUE_INT once the generated table has it (tools/mavgen.py
@@ -150,9 +164,10 @@ _REASON_BAD_MODE_FLAGS = "DO_SET_MODE needs MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"
 _REASON_BAD_TARGET = "target needs finite coordinates"
 _REASON_BAD_FRAME = "DO_REPOSITION needs MAV_FRAME_LOCAL_NED (no global position)"
 
-#: AUTOPILOT_VERSION's capabilities: what the vehicle does (no mission protocol).
+#: AUTOPILOT_VERSION's capabilities: what the vehicle does.
 CAPABILITIES = (msg.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | msg.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-                | msg.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                | msg.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT | msg.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+                | msg.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
                 | msg.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED)
 # AUTOPILOT_VERSION up to product_id (messages.AUTOPILOT_VERSION_FMT's head),
 # then flight_custom_version's 8 bytes at _VERSION_HASH
@@ -183,7 +198,7 @@ def _stream_of(msgid):
         return _S_SERVO
     if msgid == msg.MSG_BATTERY_STATUS:
         return _S_BATTERY
-    if msgid == msg.MSG_SYS_STATUS or msgid == msg.MSG_SYSTEM_TIME:
+    if msgid == msg.MSG_SYS_STATUS or msgid == msg.MSG_SYSTEM_TIME or msgid == msg.MSG_MISSION_CURRENT:
         return _S_STATUS
     return -1
 
@@ -285,6 +300,10 @@ class Endpoint:
         # Whatever moves a due time sets it to now.
         self._wake = 0
         self._param_next = -1   # next index to send for a list request, -1: none
+        self._avail_next = 0    # AVAILABLE_MODES to send: indices _avail_next.._avail_last (0: none)
+        self._avail_last = 0
+        self._mode_sent = -1    # the mode CURRENT_MODE last said
+        self._hb_odd = False    # CURRENT_MODE goes with every other heartbeat
         self._euler = array("f", [0.0, 0.0, 0.0])
         self.now_ms = 0
         # for the firmware
@@ -312,6 +331,8 @@ class Endpoint:
         #: (``set_version``; 0 and zeros: unknown)
         self.sw_version = 0
         self.sw_hash = bytes(8)
+        #: The mission protocol (the landing target as a mission).
+        self.mission = Mission(self)
 
     # ------------------------------------------------------------- driving
     def update(self, now_ms):
@@ -332,9 +353,13 @@ class Endpoint:
         # what is due
         if self.params.version != self._params_version:
             self._load_rates()
+        if self.modes.mode != self._mode_sent:
+            self._pending |= _F_CURRENT_MODE
         # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
         if (now - self._wake) & _TICKS_MASK < _TICKS_HALF:
             self._due_streams(now)
+        if self.mission.receiving:
+            self.mission.tick(now)      # an upload's item late: asked again
         # Sending and reading take turns while there is something to send:
         # an update that follows one that read sends and does not look at
         # the transport (what arrived waits there one update more); one that
@@ -415,6 +440,10 @@ class Endpoint:
             self._hb_due = hb
             soonest = _HEARTBEAT_MS
             pend |= _F_HEARTBEAT
+            odd = not self._hb_odd
+            self._hb_odd = odd
+            if odd:
+                pend |= _F_CURRENT_MODE
         wake = hb
         due = self._due_ms
         periods = self._period_ms
@@ -443,13 +472,13 @@ class Endpoint:
         self._wake = wake if soonest > 0 else now
 
     def _send_pending(self):
-        """Frames that wait, the lowest bit first, while the update's budget and the line allow."""
-        pend = self._pending
+        """Frames that wait, the lowest bit first, while the update's budget and the line allow
+        (read again after each: a frame may set its bit again, AVAILABLE_MODES while more are due)."""
         bps = self._bps
-        while pend and self._budget > 0 and (self._credit > 0 or not bps):
+        while self._pending and self._budget > 0 and (self._credit > 0 or not bps):
+            pend = self._pending
             f = pend & -pend
-            pend ^= f
-            self._pending = pend
+            self._pending = pend ^ f
             self._send_frame(f)
 
     def _load_rates(self):
@@ -548,6 +577,8 @@ class Endpoint:
         elif mid == msg.MSG_REQUEST_DATA_STREAM:
             if self._for_us(pl[2], pl[3]):
                 self._data_stream(pl[4], pl[0] | (pl[1] << 8), pl[5])
+        elif msg.MSG_MISSION_ITEM <= mid <= msg.MSG_MISSION_ITEM_INT:
+            self.mission.handle(p)
 
     def _refused(self, p, s):
         """Count a frame signing refused; tell the first one each REFUSAL_TEXT_MS."""
@@ -629,12 +660,8 @@ class Endpoint:
             arm, force = struct.unpack_from("<2f", pl, 0)
             # ArduPilot's results: arming an armed vehicle (or disarming a
             # disarmed one) is ACCEPTED, a refusal FAILED, another param1
-            # UNSUPPORTED. FAILSAFE reads as armed but is no arming's
-            # answer: refused there (the operator disarms first)
+            # UNSUPPORTED; the mode stays either way
             if arm == 1.0:
-                if self.modes.armed and self.modes.mode != M.FAILSAFE:
-                    self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-                    return
                 result = self.modes.arm(force == _FORCE_MAGIC)
             elif arm == 0.0:
                 result = self.modes.disarm()
@@ -645,6 +672,9 @@ class Endpoint:
         elif cmd == msg.MAV_CMD_DO_SET_MODE:
             base, custom = struct.unpack_from("<2f", pl, 0)
             self._set_mode(p, cmd, int(base), int(custom))
+        elif cmd == msg.MAV_CMD_DO_SET_STANDARD_MODE:
+            # (the specification's answer to a standard mode we lack: FAILED)
+            self._ack_result(p, cmd, self.modes.request(M.from_standard(int(struct.unpack_from("<f", pl, 0)[0]))))
         elif cmd == msg.MAV_CMD_DO_REPOSITION:
             if p.msgid == msg.MSG_COMMAND_INT:
                 # x, y in metres x 1e4 (INT32_MAX: keep), z in metres, local frame only
@@ -693,6 +723,9 @@ class Endpoint:
                 self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
                 self._send_once(mid)
                 return
+            if mid == msg.MSG_AVAILABLE_MODES or mid == msg.MSG_CURRENT_MODE:
+                self._request_modes(p, cmd, mid, struct.unpack_from("<f", pl, 4)[0])
+                return
             k = _stream_of(mid) if mid != msg.MSG_HEARTBEAT else -1
             if k < 0 and mid != msg.MSG_HEARTBEAT:
                 self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
@@ -721,7 +754,25 @@ class Endpoint:
         if not base & msg.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_MODE_FLAGS)
             return
-        self._ack_result(p, cmd, self.modes.request(custom))
+        self._ack_result(p, cmd, self.modes.request(M.from_custom(custom)))
+
+    def _request_modes(self, p, cmd, mid, param2):
+        """REQUEST_MESSAGE of CURRENT_MODE, or of AVAILABLE_MODES: param2 0
+        every mode, else the one of that index (from 1); they go out paced,
+        one a turn, as stream frames do."""
+        if mid == msg.MSG_CURRENT_MODE:
+            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+            self._pending |= _F_CURRENT_MODE
+            return
+        n = len(M.MODES)
+        i = int(param2)
+        if not 0 <= i <= n:
+            self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
+            return
+        self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+        self._avail_next = i if i else 1
+        self._avail_last = i if i else n
+        self._pending |= _F_AVAILABLE
 
     def _data_stream(self, stream_id, rate, start_stop):
         """REQUEST_DATA_STREAM: ArduPilot's stream groups onto our ``SR_*`` rates (no answer)."""
@@ -967,6 +1018,23 @@ class Endpoint:
             self._send(msg.MSG_SERVO_OUTPUT_RAW)
         elif f == _F_HEARTBEAT:
             self.send_heartbeat()
+        elif f == _F_CURRENT_MODE:
+            m = self.modes
+            mode = m.mode
+            self._mode_sent = mode
+            struct.pack_into(msg.CURRENT_MODE_FMT, b, o, M.CUSTOM[mode], M.CUSTOM[m.intended], M.STANDARD[mode])
+            self._send(msg.MSG_CURRENT_MODE)
+        elif f == _F_AVAILABLE:
+            i = self._avail_next
+            mode = M.MODES[i - 1]
+            struct.pack_into(msg.AVAILABLE_MODES_FMT, b, o, M.CUSTOM[mode], 0, len(M.MODES), i, M.STANDARD[mode],
+                             _MODE_NAMES[mode])
+            self._send(msg.MSG_AVAILABLE_MODES)
+            if i < self._avail_last:
+                self._avail_next = i + 1
+                self._pending |= _F_AVAILABLE
+            else:
+                self._avail_next = 0
         elif f == _F_BATTERY:
             if refresh is not None:
                 refresh(_S_BATTERY)
@@ -979,6 +1047,8 @@ class Endpoint:
                              _clamp16(bat[1] * 100.0), 0, 0, 0,
                              int(bat[2] * 100.0) if bat[2] >= 0.0 else -1, 0, 0, 0, 0, 0, 0, 0, 0)
             self._send(msg.MSG_BATTERY_STATUS)
+        elif f == _F_MISSION:
+            self.mission.send_current()
 
 
 def _clamp16(x):
