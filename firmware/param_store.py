@@ -75,6 +75,19 @@ class Files:
         except OSError:
             return False
 
+    # what the flight log's files need besides (firmware/flightlog/files.py)
+    def mkdir(self, path):
+        os.mkdir(path)
+
+    def listdir(self, path):
+        return os.listdir(path)
+
+    def stat(self, path):
+        return os.stat(path)
+
+    def statvfs(self, path):
+        return os.statvfs(path)
+
 
 def read_file(fs, path):
     """The bytes of ``path`` on ``fs``, or None when it is missing or will not open."""

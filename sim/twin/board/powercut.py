@@ -106,3 +106,22 @@ class PowerCutFiles:
     def exists(self, path):
         self.alive()
         return self._files.exists(path)
+
+    def mkdir(self, path):
+        if self.flash is not None:
+            self.flash("open")   # a metadata commit, as creating a file
+        if self.step():
+            raise PowerCut("power cut before making %s" % path)
+        self._files.mkdir(path)
+
+    def listdir(self, path):
+        self.alive()
+        return self._files.listdir(path)
+
+    def stat(self, path):
+        self.alive()
+        return self._files.stat(path)
+
+    def statvfs(self, path):
+        self.alive()
+        return self._files.statvfs(path)

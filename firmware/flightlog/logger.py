@@ -1,0 +1,437 @@
+"""The dive's on-board log: what is recorded, how often, and when it goes to flash.
+
+Radio barely carries through water, so the record a researcher can count on
+is the one the vehicle keeps. ``FlightLog`` writes ArduPilot DataFlash
+records (``dataflash.py``) into a RAM ring and moves them to a numbered
+``.BIN`` file (``files.py``) only when a flash write cannot hurt.
+
+Why RAM first: writing the Pico 2's flash suspends execution from it, and
+littlefs erases a 4 kB sector (45 ms) for each new block it fills, so an
+append in a flight slot would be a 50 ms stall. Records therefore go to
+flash only while the vehicle is **still** (the estimator's speed under
+``STILL_MPS`` on every axis for ``STILL_S``: held at the surface before the
+release, or resting on the bottom) or **disarmed**, one chunk of at most
+``CHUNK`` bytes every ``FLUSH_EVERY`` calls, each announced to the
+scheduler as the planned stall it is (``expect_delay``, the twin charges
+the same stall). A new log starts at arming: its header and parameters go
+to flash at once when the vehicle is still then (on deck), so a dive that
+never comes to rest still leaves a readable log; a log started by a reset
+in the water waits for the vehicle to rest.
+
+What the ring holds (default ``LOG_FILE_BUFSIZE`` 64 kB, every record
+enabled): the records below come at ~2.6 kB/s, so ~18 s of dive at full
+rate; with less than a quarter free the recording thins (ATT and IMU to
+5 Hz; MAG, RCOU and WING stop: ~1 kB/s) for ~16 s more; when full, new
+records are dropped (never old ones), counted (PM ``Drop``) and told in a
+MSG at the next flush. Events (MODE, MSG, EV, ERR, FIX) are never thinned.
+The thesis's 10 m drop takes ~25 s; a deeper dive wants a bigger ring
+(its cost: the collector scans it, ``docs/design/flight-log.md``).
+
+Records and rates (the log task runs at 50 Hz; ``LOG_BITMASK`` bit in
+brackets):
+
+======  ======  =============================================================
+ATT     25 Hz   roll, pitch, yaw (deg) [0]: the wings move the attitude
+                within ~0.2 s, so 25 Hz resolves a manoeuvre
+IMU     25 Hz   gyro (rad/s), accelerometer (m/s/s): the mean of the 104 Hz
+                FIFO over the last slot [1]
+MAG     10 Hz   field (Gauss) [2]: the heading changes over seconds
+BARO    10 Hz   Alt (m, minus the depth), pressure (Pa), temperature [3]
+RCOU    10 Hz   servo pulses (us) [4]
+WING    10 Hz   commanded wing angles (deg) [4]: the servos report no angle,
+                so the command is what is known
+EST     10 Hz   position, velocity (NED, m, m/s) and target [5]: the glide
+                settles in seconds
+PM       1 Hz   overruns, slots, longest slot, load, free heap, drops [6]
+FIX     each    a position fix as it arrives: N, E, D, its age [7]
+MODE, MSG, EV, ERR, PARM  as they happen: modes, texts, arming and rest,
+                failsafes raised and cleared, every parameter at arming
+======  ======  =============================================================
+"""
+
+import gc
+import struct
+from array import array
+
+from roboray.firmware.flightlog import dataflash as df
+from roboray.firmware.flightlog.dataflash import HEAD1, HEAD2, Record
+from roboray.shared import quat
+from roboray.shared.params import TYPE_INT32, TYPE_UINT8
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+    def const(x):
+        return x
+
+PARAMS = (
+    ("LOG_BITMASK", TYPE_INT32, 255, 0, 255),        # records kept (bits above)
+    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 64, 8, 160),    # kB of RAM for the ring
+    ("LOG_DISARMED", TYPE_UINT8, 0, 0, 1),           # 1: log while disarmed too
+)
+
+ATT = Record(150, "ATT", "QccC", "TimeUS,Roll,Pitch,Yaw", "sddh", "FBBB")
+IMU = Record(151, "IMU", "QBffffff", "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ", "s#EEEooo", "F-000000")
+MAG = Record(152, "MAG", "QBfff", "TimeUS,I,MagX,MagY,MagZ", "s#GGG", "F-000")
+BARO = Record(153, "BARO", "QBfff", "TimeUS,I,Alt,Press,Temp", "s#mPO", "F-000")
+RCOU = Record(154, "RCOU", "QHHHH", "TimeUS,C1,C2,C3,C4", "sYYYY", "F0000")
+WING = Record(155, "WING", "Qcccc", "TimeUS,Cmd1,Cmd2,Cmd3,Cmd4", "sdddd", "FBBBB")
+EST = Record(156, "EST", "Qffffffff", "TimeUS,PN,PE,PD,VN,VE,VD,TN,TE", "smmmnnnmm", "F00000000")
+PM = Record(157, "PM", "QHHIHIH", "TimeUS,NLon,NLoop,MaxT,Load,Mem,Drop", "s--s%b-", "F--FA0-")
+FIX = Record(158, "FIX", "QfffI", "TimeUS,N,E,D,Age", "smmms", "F000C")
+MODE = Record(159, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn", "s---", "F---")
+MSG = Record(160, "MSG", "QZ", "TimeUS,Message", "s-", "F-")
+EV = Record(161, "EV", "QB", "TimeUS,Id", "s-", "F-")
+ERR = Record(162, "ERR", "QBB", "TimeUS,Subsys,ECode", "s--", "F--")
+PARM = Record(163, "PARM", "QNff", "TimeUS,Name,Value,Default", "s---", "F---")
+RECORDS = (ATT, IMU, MAG, BARO, RCOU, WING, EST, PM, FIX, MODE, MSG, EV, ERR, PARM)
+
+#: LOG_BITMASK bits
+B_ATT = const(1)
+B_IMU = const(2)
+B_MAG = const(4)
+B_BARO = const(8)
+B_SERVO = const(16)
+B_EST = const(32)
+B_PM = const(64)
+B_FIX = const(128)
+
+#: EV ids (ArduPilot's LogEvent numbers)
+EV_ARMED = const(10)
+EV_DISARMED = const(11)
+EV_LAND_COMPLETE = const(18)   # came to rest
+EV_NOT_LANDED = const(28)      # moving again
+
+#: ERR: ``Subsys`` is 100 + the failsafe's bit (firmware/failsafe.py), ``ECode`` 1 raised, 0 cleared.
+ERR_FAILSAFE_BASE = const(100)
+
+CHUNK = const(4096)            # bytes a flush writes at most: one littlefs block
+FLUSH_EVERY = const(10)        # calls between flushes (0.2 s at 50 Hz: 20 kB/s)
+STILL_MPS = 0.05
+_NOT_STILL = -0.05             # -STILL_MPS, made once (a negation boxes a float each time)
+STILL_S = 3
+_CALL_HZ = const(50)
+_STILL_CALLS = const(150)      # STILL_S at 50 Hz
+_THIN_FRACTION = const(4)      # thin out below a quarter free
+#: The stall a chunk's write costs at most, announced first (ms): a sector
+#: erase (45 ms), 16 page programs (6.4 ms), a close's metadata commit
+#: and, now and then, a metadata compaction (another erase).
+CHUNK_STALL_MS = const(110)
+#: A new log's creation: header and parameters (~6 kB: two sectors), two
+#: files created (the log, LASTLOG.TXT), old logs maybe removed.
+CREATE_STALL_MS = const(300)
+
+_DEG100 = 5729.5779513082    # rad -> centidegrees
+
+_mem_free = getattr(gc, "mem_free", None)   # MicroPython's; CPython has none: 0
+
+
+class FlightLog:
+    """The on-board log.
+
+    Parameters
+    ----------
+    params:
+        The parameter table (LOG_* parameters, and every parameter for PARM).
+    telemetry:
+        ``shared/mavlink/telemetry.Telemetry``: the values logged, kept
+        current by ``refresh(stream)`` (``firmware/telemetry.Reporter``) just
+        before they are read.
+    files:
+        ``files.LogFiles``.
+    ticks_us:
+        The board's microsecond clock (``time.ticks_us``).
+    expect_delay:
+        ``expect_delay_ms(ms)`` of the scheduler: called before a flash write.
+    """
+
+    def __init__(self, params, telemetry, files, ticks_us, ticks_diff, refresh=None, expect_delay=None,
+                 sched=None, fixes=None):
+        self.params = params
+        self.t = telemetry
+        self.files = files
+        self._ticks_us = ticks_us
+        self._ticks_diff = ticks_diff
+        self.refresh = refresh
+        self.expect_delay = expect_delay
+        self.sched = sched
+        self.fixes = fixes            # the endpoint: fix, fix_count, fix_time_us
+        self._i_mask = params.index("LOG_BITMASK")
+        self._i_disarmed = params.index("LOG_DISARMED")
+        kb = params.get_int(params.index("LOG_FILE_BUFSIZE"))
+        self.w = df.Writer(kb * 1024)
+        self.clock = df.Clock()
+        self._last_us = ticks_us()
+        self._euler = array("f", [0.0, 0.0, 0.0])
+        self._n = 0
+        self._still = 0
+        self._resting = False
+        self.armed = False
+        self.logging = False
+        self._flush_wait = 0
+        self._create = False          # the log's file is still to be created (first flush)
+        self._fix_seen = 0 if fixes is None else fixes.fix_count
+        self._fs_flags = 0
+        self._told_dropped = 0
+        self._overruns = 0
+        self._slots = 0
+        self.chunks = 0               # chunks written to flash
+        self.logs_started = 0
+
+    # ------------------------------------------------------------ time
+    def _now(self):
+        now = self._ticks_us()
+        self.clock.advance(self._ticks_diff(now, self._last_us))
+        self._last_us = now
+        self.w.stamp(self.clock)
+
+    # ------------------------------------------------------------ start
+    def start(self, reason_text):
+        """A new log: header and parameters into the ring; its file is
+        created by the next flush (at once when the vehicle is still: on
+        deck at arming; after a reset in the water, once it rests)."""
+        w = self.w
+        if self.files.current and w.pending():
+            self._drain()           # the last log's tail first: it is still
+        w.clear()
+        self._now()
+        if not w.header(RECORDS):
+            return False
+        p = self.params
+        for i in range(p.count()):
+            o = w.reserve(PARM.length)
+            if o < 0:
+                break
+            struct.pack_into(PARM.pack, w.buf, o, HEAD1, HEAD2, PARM.type_id, w.t0, w.t1, w.t2, w.t3,
+                             p.name_bytes(i), p.get(i), p.default(i))
+        self.logging = True
+        self._create = True
+        self._flush_wait = 0
+        self.logs_started += 1
+        self.msg(reason_text)
+        return True
+
+    def _drain(self):
+        """Everything waiting to flash now (at arming: the previous log's end)."""
+        w = self.w
+        while w.pending() and self.files.current:
+            self._flush_wait = 0
+            before = w.pending()
+            self._flush(True)
+            if w.pending() >= before:
+                break           # the flash refused it: counted in write_errors
+        self.files.current = 0
+
+    def stop(self):
+        """Disarmed: what is left goes to flash in the next calls; then the log is closed."""
+        self.logging = False
+
+    # ------------------------------------------------------------ events
+    def msg(self, text):
+        w = self.w
+        o = w.reserve(MSG.length)
+        if o >= 0:
+            self._now()
+            struct.pack_into(MSG.pack, w.buf, o, HEAD1, HEAD2, MSG.type_id, w.t0, w.t1, w.t2, w.t3,
+                             text if isinstance(text, bytes) else text.encode())
+
+    def mode(self, number, reason=0):
+        if not self.logging:
+            return
+        w = self.w
+        o = w.reserve(MODE.length)
+        if o >= 0:
+            self._now()
+            struct.pack_into(MODE.pack, w.buf, o, HEAD1, HEAD2, MODE.type_id, w.t0, w.t1, w.t2, w.t3,
+                             number, number, reason)
+
+    def event(self, ev):
+        if not self.logging:
+            return
+        w = self.w
+        o = w.reserve(EV.length)
+        if o >= 0:
+            self._now()
+            struct.pack_into(EV.pack, w.buf, o, HEAD1, HEAD2, EV.type_id, w.t0, w.t1, w.t2, w.t3, ev)
+
+    def _err(self, subsys, code):
+        w = self.w
+        o = w.reserve(ERR.length)
+        if o >= 0:
+            struct.pack_into(ERR.pack, w.buf, o, HEAD1, HEAD2, ERR.type_id, w.t0, w.t1, w.t2, w.t3,
+                             subsys, code)
+
+    # ------------------------------------------------------------ the task
+    def step(self, armed):
+        """The log task (50 Hz): arming and disarming, the periodic records,
+        failsafe changes, fixes, and a flush when the vehicle is still."""
+        if armed != self.armed:
+            self.armed = armed
+            if armed:
+                self.start("armed: log started")
+                self.event(EV_ARMED)
+            else:
+                self.event(EV_DISARMED)
+                if not self.params.get_int(self._i_disarmed):
+                    self.stop()
+        elif not self.logging and not self.files.current and self.params.get_int(self._i_disarmed):
+            self.start("logging while disarmed")
+        n = self._n + 1
+        if n >= _CALL_HZ:
+            n = 0
+        self._n = n
+        t = self.t
+        # still: every speed under STILL_MPS for STILL_S
+        v = t.vel_ned
+        if _NOT_STILL < v[0] < STILL_MPS and _NOT_STILL < v[1] < STILL_MPS and _NOT_STILL < v[2] < STILL_MPS:
+            if self._still < _STILL_CALLS:
+                self._still += 1
+        else:
+            self._still = 0
+        resting = self._still >= _STILL_CALLS
+        if self.logging:
+            self._records(n)
+            if resting != self._resting:
+                self.event(EV_LAND_COMPLETE if resting else EV_NOT_LANDED)
+        self._resting = resting
+        self._flush(resting or not armed)
+
+    def _records(self, n):
+        t = self.t
+        w = self.w
+        mask = self.params.get_int(self._i_mask)
+        thin = w.free() * _THIN_FRACTION < w.size
+        refresh = self.refresh
+        self._now()
+        fast = (n & 1) == 0 if not thin else n % 10 == 0
+        if fast and mask & (B_ATT | B_IMU):
+            if refresh is not None:
+                refresh(0)      # attitude and rates
+                refresh(2)      # sensors
+            if mask & B_ATT:
+                e = self._euler
+                quat.to_euler(e, t.q)
+                yaw = e[2] * _DEG100
+                if yaw < 0.0:
+                    yaw += 36000.0
+                o = w.reserve(ATT.length)
+                if o >= 0:
+                    struct.pack_into(ATT.pack, w.buf, o, HEAD1, HEAD2, ATT.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     int(e[0] * _DEG100), int(e[1] * _DEG100), int(yaw))
+            if mask & B_IMU:
+                m = t.imu
+                o = w.reserve(IMU.length)
+                if o >= 0:
+                    struct.pack_into(IMU.pack, w.buf, o, HEAD1, HEAD2, IMU.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     0, m[3], m[4], m[5], m[0], m[1], m[2])
+        if n % 5 == 2:      # 10 Hz, away from the 25 Hz calls' even numbers where it can be
+            if refresh is not None:
+                refresh(1)      # position
+                refresh(3)      # servos
+                if not fast:
+                    refresh(2)
+            m = t.imu
+            if mask & B_MAG and not thin:
+                o = w.reserve(MAG.length)
+                if o >= 0:
+                    struct.pack_into(MAG.pack, w.buf, o, HEAD1, HEAD2, MAG.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     0, m[6], m[7], m[8])
+            if mask & B_BARO:
+                env = t.env
+                o = w.reserve(BARO.length)
+                if o >= 0:
+                    struct.pack_into(BARO.pack, w.buf, o, HEAD1, HEAD2, BARO.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     0, -env[0], env[1], env[2])
+            if mask & B_SERVO and not thin:
+                u = t.servo_us
+                o = w.reserve(RCOU.length)
+                if o >= 0:
+                    struct.pack_into(RCOU.pack, w.buf, o, HEAD1, HEAD2, RCOU.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     u[0], u[1], u[2], u[3])
+                s = t.servo_deg
+                o = w.reserve(WING.length)
+                if o >= 0:
+                    struct.pack_into(WING.pack, w.buf, o, HEAD1, HEAD2, WING.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     int(s[0] * 100.0), int(s[1] * 100.0), int(s[2] * 100.0), int(s[3] * 100.0))
+            if mask & B_EST:
+                p = t.pos_ned
+                v = t.vel_ned
+                g = t.target_ned
+                o = w.reserve(EST.length)
+                if o >= 0:
+                    struct.pack_into(EST.pack, w.buf, o, HEAD1, HEAD2, EST.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     p[0], p[1], p[2], v[0], v[1], v[2], g[0], g[1])
+        if n == 7 and mask & B_PM:     # 1 Hz
+            self._pm()
+        # failsafes raised and cleared
+        flags = t.failsafe_flags
+        changed = flags ^ self._fs_flags
+        if changed:
+            self._fs_flags = flags
+            bit = 0
+            while changed:
+                if changed & 1:
+                    self._err(ERR_FAILSAFE_BASE + bit, (flags >> bit) & 1)
+                changed >>= 1
+                bit += 1
+        fx = self.fixes
+        if fx is not None and fx.fix_count != self._fix_seen:
+            self._fix_seen = fx.fix_count
+            if mask & B_FIX:
+                f = fx.fix
+                age_ms = self._ticks_diff(self._last_us, fx.fix_time_us) // 1000
+                o = w.reserve(FIX.length)
+                if o >= 0:
+                    struct.pack_into(FIX.pack, w.buf, o, HEAD1, HEAD2, FIX.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     f[0], f[1], f[2], age_ms if age_ms > 0 else 0)
+
+    def _pm(self):
+        w = self.w
+        s = self.sched
+        overruns = slots = max_us = load = 0
+        if s is not None:
+            overruns = s.overruns - self._overruns
+            self._overruns = s.overruns
+            slots = s.cycles - self._slots
+            self._slots = s.cycles
+            max_us = s.max_loop_us
+            load = s.load_permille
+        o = w.reserve(PM.length)
+        if o >= 0:
+            struct.pack_into(PM.pack, w.buf, o, HEAD1, HEAD2, PM.type_id, w.t0, w.t1, w.t2, w.t3,
+                             overruns & 0xFFFF, slots & 0xFFFF, max_us, load, _mem_free() if _mem_free else 0, w.dropped & 0xFFFF)
+
+    # ------------------------------------------------------------ flash
+    def _flush(self, harmless):
+        """One chunk to flash when harmless and due (or the log closes)."""
+        if self._flush_wait > 0:
+            self._flush_wait -= 1
+            return
+        w = self.w
+        if not harmless or not (self.files.current or self._create) or not w.pending():
+            if not self.logging and self.files.current and not w.pending():
+                self.files.current = 0      # the log is complete on flash
+            return
+        if self.expect_delay is not None:
+            self.expect_delay(CREATE_STALL_MS if self._create else CHUNK_STALL_MS)
+        o, n = w.chunk(CHUNK)
+        mv = memoryview(w.buf)
+        if self._create:
+            self._create = False
+            try:
+                self.files.create(mv[o:o + n], w.size)
+                ok = True
+            except OSError:
+                self.files.write_errors += 1
+                self.files.current = 0
+                ok = False
+        else:
+            ok = self.files.append(mv[o:o + n])
+        if ok:
+            w.taken(n)
+            self.chunks += 1
+            if w.dropped != self._told_dropped:     # (said now: there is room again)
+                self._now()
+                self.msg("log: %d records dropped, the buffer was full" % (w.dropped - self._told_dropped))
+                self._told_dropped = w.dropped
+        self._flush_wait = FLUSH_EVERY
