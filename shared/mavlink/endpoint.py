@@ -333,6 +333,9 @@ class Endpoint:
         self.sw_hash = bytes(8)
         #: The mission protocol (the landing target as a mission).
         self.mission = Mission(self)
+        #: The log protocol (``firmware/flightlog/transfer.LogTransfer``), set by
+        #: the firmware; None: LOG_* requests go unanswered.
+        self.logs = None
 
     # ------------------------------------------------------------- driving
     def update(self, now_ms):
@@ -365,7 +368,7 @@ class Endpoint:
         # the transport (what arrived waits there one update more); one that
         # reads may send too. So a burst of due frames neither holds the
         # received ones back nor costs a read each.
-        if self._read_last and (self._pending or self._param_next >= 0 or self._ans_n) and self._line_free():
+        if self._read_last and (self._pending or self._param_next >= 0 or self._ans_n or self._bulk()) and self._line_free():
             self._read_last = False
             self._send_due()
             return
@@ -393,7 +396,7 @@ class Endpoint:
                     break
         self._rx_i = i
         self._rx_n = n
-        if self._budget > 0 and (self._pending or self._param_next >= 0 or self._ans_n) and self._line_free():
+        if self._budget > 0 and (self._pending or self._param_next >= 0 or self._ans_n or self._bulk()) and self._line_free():
             self._send_due()
 
     def _line_free(self):
@@ -428,6 +431,14 @@ class Endpoint:
                     break
                 self.send_param(i)
                 self._param_next = i + 1
+        logs = self.logs
+        if logs is not None and logs.sending and self._param_next < 0:
+            logs.send(self)
+
+    def _bulk(self):
+        """Whether log entries or data wait to go (a download: second to the parameter list)."""
+        logs = self.logs
+        return logs is not None and logs.sending
 
     def _due_streams(self, now):
         """Mark the heartbeat and the streams that are due; sets ``_wake`` to the next due time."""
@@ -579,6 +590,9 @@ class Endpoint:
                 self._data_stream(pl[4], pl[0] | (pl[1] << 8), pl[5])
         elif msg.MSG_MISSION_ITEM <= mid <= msg.MSG_MISSION_ITEM_INT:
             self.mission.handle(p)
+        elif msg.MSG_LOG_REQUEST_LIST <= mid <= msg.MSG_LOG_REQUEST_END:
+            if self.logs is not None:
+                self.logs.handle(p)
 
     def _refused(self, p, s):
         """Count a frame signing refused; tell the first one each REFUSAL_TEXT_MS."""
