@@ -71,18 +71,19 @@ def _master(args: argparse.Namespace) -> str:
     """The link to open: ``--master``, else ``$ROBORAY_MASTER``; ``auto``
     is the one SiK radio plugged in."""
     from roboray.ground import radios
+    from roboray.ground.link import parse_master
 
     master = getattr(args, "master", None) or os.environ.get(MASTER_ENV, "").strip()
     if not master:
-        raise UsageError("no link: give --master (before or after the command: a serial port, udpin:HOST:PORT, "
-                         "... or auto) or set %s" % MASTER_ENV)
-    return radios.pick(master)
+        raise UsageError("no link: give --master (before or after the command: a serial port, udp:PORT, "
+                         "tcp:HOST:PORT, ... or auto) or set %s" % MASTER_ENV)
+    return parse_master(radios.pick(master))
 
 
 def _connect(args: argparse.Namespace):
     from roboray.ground.link import Link
 
-    link = Link(_master(args), args.baudrate, args.source_system, _key(args))
+    link = Link(_master(args), args.baudrate, args.source_system, _key(args), connect_timeout=args.timeout)
     try:
         link.wait_heartbeat(args.timeout)
     except BaseException:
@@ -120,8 +121,10 @@ def _link_options(p: argparse.ArgumentParser, top: bool = False) -> None:
 
     g = p.add_argument_group("link (MAVProxy's options, before or after the command)")
     g.add_argument("--master", default=default(None), metavar="DEVICE",
-                   help="serial port (PATH or PATH,BAUD), udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, or "
-                        "auto: the one SiK radio plugged in (USB ids 0403:6015, 10c4:ea60) (default: $%s)"
+                   help="serial port (PATH or PATH,BAUD); udp:PORT (listen on 0.0.0.0:PORT, as udpin:PORT), "
+                        "udpin:HOST:PORT, udpout:HOST:PORT; tcp:HOST:PORT (tcp:PORT: this machine's), "
+                        "tcpin:PORT; or auto: the one SiK radio plugged in (USB ids 0403:6015, 10c4:ea60) "
+                        "(default: $%s). Exit 3 when the link closes under the command (the port went away)"
                         % MASTER_ENV)
     g.add_argument("--baudrate", type=_baudrate, default=default(57600), help="serial baud rate (default 57600)")
     g.add_argument("--source-system", type=_system_id, default=default(255),
@@ -131,7 +134,7 @@ def _link_options(p: argparse.ArgumentParser, top: bool = False) -> None:
     g.add_argument("--key-file", metavar="FILE", default=default(None),
                    help="read the signing passphrase from FILE's first line")
     g.add_argument("--timeout", type=positive, default=default(5.0), metavar="S",
-                   help="seconds to wait for the vehicle's heartbeat (default 5)")
+                   help="seconds to wait for the vehicle's heartbeat, and for a TCP connection (default 5)")
 
 
 # ---------------------------------------------------------------- status
@@ -180,31 +183,51 @@ MAV_CMD_DO_REPOSITION = 192
 FORCE_ARM = 21196
 
 
-def _command(args: argparse.Namespace, cmd: int, params: tuple, name: str, done: str) -> None:
+def _arm_disarm(args: argparse.Namespace, arm: int) -> None:
+    """Arming is a flag: the vehicle keeps its mode, which the answer names."""
+    from roboray.shared import modes
+
+    name = "arm" if arm else "disarm"
     link = _connect(args)
     try:
-        link.command(cmd, params, timeout=args.ack_timeout, name=name)
+        link.command(MAV_CMD_COMPONENT_ARM_DISARM, (arm, FORCE_ARM if args.force else 0), timeout=args.ack_timeout,
+                     name=name)
+        mode = modes.custom_name(link.vehicle_heartbeat.custom_mode)
     finally:
         link.close()
-    emit(args, {"command": name, "result": "accepted"}, lambda r: done)
+    emit(args, {"command": name, "result": "accepted", "mode": mode},
+         lambda r: "%s in %s" % ("armed" if arm else "disarmed", mode))
 
 
 def do_arm(args: argparse.Namespace) -> None:
-    _command(args, MAV_CMD_COMPONENT_ARM_DISARM, (1, FORCE_ARM if args.force else 0), "arm", "armed")
+    _arm_disarm(args, 1)
 
 
 def do_disarm(args: argparse.Namespace) -> None:
-    _command(args, MAV_CMD_COMPONENT_ARM_DISARM, (0, FORCE_ARM if args.force else 0), "disarm", "disarmed")
+    _arm_disarm(args, 0)
 
 
 def do_mode(args: argparse.Namespace) -> None:
+    """DO_SET_MODE with the mode's custom number; RoboRay's names, or the
+    ArduSub names MAVProxy and QGroundControl show (``shared/modes.py``)."""
     from roboray.shared import modes
 
-    number_ = modes.mode_number(args.name)
-    if number_ < 0:
-        raise UsageError("unknown mode %r: choose from %s" % (args.name, ", ".join(modes.NAMES)))
-    _command(args, MAV_CMD_DO_SET_MODE, (1, number_), "mode %s" % modes.NAMES[number_],
-             "mode %s" % modes.NAMES[number_])
+    m = modes.mode_number(args.name)
+    if m < 0:
+        if args.name.upper() == "DISARMED":
+            raise UsageError("DISARMED is no mode: the vehicle keeps its mode disarmed; use disarm")
+        raise UsageError("unknown mode %r: choose from %s (or the names ground stations show: %s)" % (
+            args.name, ", ".join(modes.NAMES[i] for i in modes.MODES),
+            ", ".join(modes.ARDUSUB_NAMES[i] for i in modes.MODES)))
+    name = modes.NAMES[m]
+    link = _connect(args)
+    try:
+        link.command(MAV_CMD_DO_SET_MODE, (1, modes.CUSTOM[m]), timeout=args.ack_timeout, name="mode %s" % name)
+    finally:
+        link.close()
+    emit(args, {"command": "mode %s" % name, "result": "accepted", "mode": name, "custom_mode": modes.CUSTOM[m],
+                "ground_station_name": modes.ARDUSUB_NAMES[m]},
+         lambda r: "mode %s (%s in MAVProxy and QGroundControl)" % (name, modes.ARDUSUB_NAMES[m]))
 
 
 #: The deepest bottom a target may be given (CTL_DEPTH_M's maximum, the
@@ -247,6 +270,92 @@ def do_target(args: argparse.Namespace) -> None:
         if bottom is None:
             return line + ", on the vehicle's own bottom depth (%s)" % whose
         return line + ", bottom at %.1f m (%s): reach %.2f m" % (bottom, whose, r["reach_m"])
+
+    emit(args, result, text)
+
+
+# --------------------------------------------------------------- mission
+#: Each wp action's arguments: (fewest, most, usage).
+_WP_USAGE = {"list": (0, 0, "wp list"), "set": (2, 2, "wp set NORTH EAST [--down D]"), "clear": (0, 0, "wp clear")}
+
+
+def do_wp(args: argparse.Namespace) -> None:
+    """The landing target as a mission, as MAVProxy's ``wp``: ``list`` downloads
+    it, ``set`` uploads home and the target (its reach checked as ``target``
+    checks it before the link opens, then by the vehicle against its own
+    bottom depth), ``clear`` removes it."""
+    from roboray.ground import mission
+
+    fewest, most, usage = _WP_USAGE[args.action]
+    if not fewest <= len(args.rest) <= most:
+        raise UsageError("usage: roboray-ground %s" % usage)
+    if args.down is not None and args.action != "set":
+        raise UsageError("--down goes with wp set")
+    north = east = 0.0
+    if args.action == "set":
+        try:
+            north, east = (number(a) for a in args.rest)
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError("wp set: %s" % exc)
+        if args.down is not None:
+            check_target(north, east, args.down, 0.0, " (--down)")
+        else:
+            check_target(north, east, DEEPEST_M, 0.0, " (the deepest a target may be: give --down)")
+    link = _connect(args)
+    try:
+        if args.action == "list":
+            items = mission.download(link, args.ack_timeout)
+        elif args.action == "set":
+            mission.upload(link, mission.target_item(north, east, args.down), args.ack_timeout)
+        else:
+            mission.clear(link, args.ack_timeout)
+    except mission.MissionRefused as exc:
+        if exc.result in mission.VALUE_RESULTS:
+            raise UsageError(str(exc))   # the vehicle found the value wrong: a mistake in the arguments
+        raise
+    finally:
+        link.close()
+    if args.action == "set":
+        bottom_from = "--down" if args.down is not None else "CTL_DEPTH_M"
+        result = {"command": "wp set", "result": "accepted", "north_m": north, "east_m": east,
+                  "distance_m": math.hypot(north, east), "bottom_m": args.down, "bottom_from": bottom_from}
+        emit(args, result, lambda r: "mission set: target %.2f m north, %.2f m east (%.2f m away), %s"
+             % (north, east, r["distance_m"], "bottom at %.1f m (--down)" % args.down if args.down is not None
+                else "on the vehicle's own bottom depth (CTL_DEPTH_M)"))
+    elif args.action == "clear":
+        emit(args, {"command": "wp clear", "result": "accepted"}, lambda r: "mission cleared: no target")
+    else:
+        _wp_list(args, items)
+
+
+def _wp_list(args: argparse.Namespace, items: list) -> None:
+    from roboray.ground import mission
+
+    target = mission.target_of(items)
+    tgt = None
+    if target is not None:
+        tgt = {"north_m": target.north_m, "east_m": target.east_m, "down_m": target.down_m,
+               "distance_m": math.hypot(target.north_m, target.east_m),
+               "frame": mission.FRAME_NAMES.get(target.frame, str(target.frame)),
+               "latitude_deg": target.latitude, "longitude_deg": target.longitude}
+    result = {"count": len(items), "items": [mission.describe_item(m) for m in items], "target": tgt}
+
+    def text(r: dict) -> str:
+        lines = []
+        for it in r["items"]:
+            what = "the release point"
+            if it["command"] == "NAV_LAND" and tgt is not None:
+                what = "%.2f m north, %.2f m east (%.2f m away), %s" % (
+                    tgt["north_m"], tgt["east_m"], tgt["distance_m"],
+                    "bottom at %.1f m" % tgt["down_m"] if tgt["down_m"] is not None
+                    else "on the vehicle's own bottom depth (CTL_DEPTH_M)")
+                if tgt["latitude_deg"] is not None:
+                    what += "; %.7f, %.7f deg from home at 0, 0" % (tgt["latitude_deg"], tgt["longitude_deg"])
+            lines.append("%d  %-6s  %-12s  %-9s  %s" % (it["seq"], "home" if it["seq"] == 0 else "target",
+                                                         it["command"], it["frame"], what))
+        if tgt is None:
+            lines.append("no target: the mission is home alone")
+        return "\n".join(lines)
 
     emit(args, result, text)
 
@@ -598,7 +707,7 @@ def do_watch(args: argparse.Namespace) -> None:
 
     tty = sys.stdout.isatty() and not args.plain
     state = State(lost_after_s=args.lost_after)
-    link = Link(_master(args), args.baudrate, args.source_system, _key(args))
+    link = Link(_master(args), args.baudrate, args.source_system, _key(args), connect_timeout=args.timeout)
     link.on_message = state.update
     end = math.inf if args.duration is None else time.monotonic() + args.duration
     next_draw = 0.0
@@ -630,10 +739,85 @@ def do_watch(args: argparse.Namespace) -> None:
 
 # ------------------------------------------------------------------- logs
 def do_log(args: argparse.Namespace) -> None:
-    if args.action == "record":
-        _log_record(args)
-    else:
-        _log_plot(args)
+    action = args.action
+    if action in ("record", "plot", "download") and args.target is None:
+        raise UsageError("log %s needs %s" % (action, "a log number (or latest)" if action == "download"
+                                               else "FILE"))
+    if action in ("list", "erase") and args.target is not None:
+        raise UsageError("log %s takes no argument (got %r)" % (action, args.target))
+    args.file = args.target
+    {"record": _log_record, "plot": _log_plot, "list": _log_list, "download": _log_download,
+     "erase": _log_erase}[action](args)
+
+
+def _log_list(args: argparse.Namespace) -> None:
+    from roboray.ground.logs import list_logs
+
+    link = _connect(args)
+    try:
+        entries = list_logs(link)
+    finally:
+        link.close()
+
+    def text(rows: list) -> str:
+        if not rows:
+            return "no logs on the vehicle"
+        return "\n".join(["  id      size"] + ["%4d %9d" % (r["id"], r["size"]) for r in rows])
+
+    emit(args, [e.as_dict() for e in entries], text)
+
+
+def _log_download(args: argparse.Namespace) -> None:
+    from roboray.ground.logs import download, list_logs
+    from roboray.sim import progress
+
+    which = args.target
+    if which != "latest":
+        try:
+            number = int(which)
+        except ValueError:
+            number = 0
+        if number < 1:
+            raise UsageError("log download: expected a log number >= 1 or 'latest', got %r" % which)
+    link = _connect(args)
+    try:
+        entries = list_logs(link)
+        if not entries:
+            raise CliError("no logs on the vehicle")
+        if which == "latest":
+            entry = entries[-1]
+        else:
+            found = [e for e in entries if e.id == number]
+            if not found:
+                raise CliError("no log %d on the vehicle (it has %s)" % (number, ", ".join(str(e.id) for e in entries)))
+            entry = found[0]
+        out = args.out or "%08d.BIN" % entry.id
+        _writable(out)
+        with progress.bar(args, entry.size, "log %d" % entry.id, unit="B") as b:
+            done = [0]
+
+            def moved(received: int, size: int) -> None:
+                b.update(received - done[0])
+                done[0] = received
+
+            result = download(link, entry, out, timeout=args.data_timeout, progress=moved)
+    finally:
+        link.close()
+    emit(args, result, lambda r: "log %d: %d bytes to %s in %.1f s%s" % (
+        r["id"], r["size"], r["path"], r["seconds"],
+        " (resumed after %d bytes)" % r["resumed_bytes"] if r["resumed_bytes"] else ""))
+
+
+def _log_erase(args: argparse.Namespace) -> None:
+    from roboray.ground.logs import erase_logs, list_logs
+
+    link = _connect(args)
+    try:
+        n = len(list_logs(link))
+        erase_logs(link)
+    finally:
+        link.close()
+    emit(args, {"erased": n}, lambda r: "erased %d log(s)" % n)
 
 
 def _log_record(args: argparse.Namespace) -> None:
@@ -662,14 +846,15 @@ def _log_record(args: argparse.Namespace) -> None:
 
 
 def _log_plot(args: argparse.Namespace) -> None:
-    from roboray.ground import plot
+    from roboray.ground import binplot, plot
 
     if not args.out:
         raise UsageError("log plot needs --out FILE.png")
     with open(args.file, "rb") as f:
         data = f.read()
+    draw = binplot.plot if binplot.is_dataflash(data) else plot.plot
     try:
-        counts = plot.plot(data, args.out, title=os.path.basename(args.file))
+        counts = draw(data, args.out, title=os.path.basename(args.file))
     except ValueError as exc:
         raise CliError("%s: %s" % (args.file, exc))
     emit(args, {"out": args.out, "samples": counts}, lambda r: "wrote %s" % args.out)
@@ -771,9 +956,9 @@ def build_parser():
 
     ack = dict(type=positive, default=3.0, metavar="S", help="seconds to wait for COMMAND_ACK (default 3)")
     for name, handler, text, force in (
-            ("arm", do_arm, "arm the vehicle (DISARMED -> PASSIVE)",
+            ("arm", do_arm, "arm the vehicle in its present mode (PASSIVE after a boot); the mode stays",
              "arm without the vehicle's pre-arm checks (MAVLink's force code 21196)"),
-            ("disarm", do_disarm, "disarm the vehicle (servos to the safe position)",
+            ("disarm", do_disarm, "disarm the vehicle (servos to the safe position; the mode stays)",
              "send MAVLink's force code 21196 as well; this vehicle never refuses to disarm, so it changes "
              "nothing")):
         p = command(sub, name, handler, text)
@@ -782,10 +967,13 @@ def build_parser():
         p.add_argument("--ack-timeout", **ack)
         add_json(p)
 
-    p = command(sub, "mode", do_mode, "switch flight mode (DISARMED, PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE)")
+    p = command(sub, "mode", do_mode, "switch flight mode (PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE), "
+                "armed or not")
     p.add_argument("name", metavar="NAME",
-                   help="the mode, in any case: DISARMED, PASSIVE, ATTITUDE, VELOCITY, TARGET or FAILSAFE "
-                        "(TARGET needs a target set first)")
+                   help="the mode, in any case: PASSIVE, ATTITUDE, VELOCITY, TARGET or FAILSAFE, or the name "
+                        "MAVProxy and QGroundControl show for it: MANUAL, STABILIZE, GUIDED, AUTO or SURFACE "
+                        "(armed, TARGET needs a target set first; FAILSAFE a failsafe chose is left once its "
+                        "cause has cleared)")
     _link_options(p)
     p.add_argument("--ack-timeout", **ack)
     add_json(p)
@@ -800,6 +988,22 @@ def build_parser():
                         "vehicle's CTL_DEPTH_M parameter)")
     _link_options(p)
     p.add_argument("--ack-timeout", **ack)
+    add_json(p)
+
+    p = command(sub, "wp", do_wp,
+                "the landing target as a mission, as MAVProxy's wp: list it, set it (metres north and east of "
+                "the release point; one beyond the reach is refused) or clear it")
+    p.add_argument("action", choices=("list", "set", "clear"),
+                   help="list: home (item 0) and the target (item 1); set NORTH EAST: upload them; clear: no target")
+    p.add_argument("rest", nargs="*", metavar="ARG",
+                   help="set: NORTH EAST, metres north and east of the release point (negative: south, west)")
+    p.add_argument("--down", type=positive, default=None, metavar="D",
+                   help="set: the bottom's depth at the target, metres below the surface, > 0 (default: the "
+                        "vehicle's CTL_DEPTH_M parameter)")
+    _link_options(p)
+    p.add_argument("--ack-timeout", type=positive, default=1.5, metavar="S",
+                   help="seconds to wait for each answer before asking again, up to five more times "
+                        "(default 1.5, MAVLink's)")
     add_json(p)
 
     p = command(sub, "param", do_param, "list, get, set, show, fetch, save, load or diff parameters "
@@ -825,11 +1029,17 @@ def build_parser():
                    help="seconds for the vehicle to confirm the change (default 6)")
     add_json(p)
 
-    p = command(sub, "log", do_log, "record a tlog, or plot one")
-    p.add_argument("action", choices=("record", "plot"),
-                   help="record: write what the vehicle sends to FILE.tlog; plot: draw FILE.tlog to --out")
-    p.add_argument("file", metavar="FILE.tlog", help="the tlog to write (record) or read (plot)")
-    p.add_argument("--out", type=output_file, metavar="FILE.png", help="plot: the PNG to write")
+    p = command(sub, "log", do_log, "the vehicle's on-board logs (list, download, erase), tlogs (record), plots")
+    p.add_argument("action", choices=("list", "download", "erase", "record", "plot"),
+                   help="list: the logs on the vehicle; download N|latest: fetch one (.BIN), resuming a "
+                        "download that was cut; erase: remove every log (disarmed); record FILE.tlog: write "
+                        "what the vehicle sends; plot FILE: draw a .BIN or a .tlog to --out")
+    p.add_argument("target", nargs="?", metavar="N|FILE",
+                   help="download: the log's number or 'latest'; record, plot: the file")
+    p.add_argument("--out", type=output_file, metavar="FILE",
+                   help="plot: the PNG to write; download: the file (default NNNNNNNN.BIN here)")
+    p.add_argument("--data-timeout", type=positive, default=10.0, metavar="S",
+                   help="download: give up after this long without new data; the part kept resumes (default 10)")
     p.add_argument("--duration", type=positive, default=None, metavar="S", help="record: stop after this many seconds")
     _link_options(p)
     add_json(p)
@@ -841,6 +1051,10 @@ def build_parser():
     p.add_argument("--key", metavar="PASSPHRASE", help="check signatures with this passphrase's key")
     p.add_argument("--types", nargs="+", metavar="TYPE", help="only these message types")
     add_json(p)
+
+    from roboray.ground import fixes_command
+
+    fixes_command.register(sub, _link_options, _connect)
 
     p = command(sub, "demo-vehicle", do_demo_vehicle,
                 "serve the board endpoint (MicroPython) behind a pseudo-terminal; prints its path")
