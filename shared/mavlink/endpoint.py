@@ -134,9 +134,9 @@ _F_WING2 = const(0x2000)
 _F_WING3 = const(0x4000)
 _F_WING4 = const(0x8000)
 _F_BATTERY = const(0x10000)
-_F_CURRENT_MODE = const(0x20000)
-_F_AVAILABLE = const(0x40000)     # AVAILABLE_MODES, the next of those asked for
 _F_MISSION = const(0x20000)       # MISSION_CURRENT
+_F_CURRENT_MODE = const(0x40000)
+_F_AVAILABLE = const(0x80000)     # AVAILABLE_MODES, the next of those asked for
 # A stream's telemetry is refreshed (on_refresh) with its first frame, which
 # has its lowest bit: the others of the stream go out after it and use the same.
 # each stream's frames, by stream number
@@ -760,6 +760,12 @@ class Endpoint:
         elif cmd == msg.MAV_CMD_GET_HOME_POSITION:
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
             self._send_once(msg.MSG_HOME_POSITION)
+        elif cmd == msg.MAV_CMD_DO_SET_MISSION_CURRENT:
+            why = self.mission.set_current(int(struct.unpack_from("<f", pl, 0)[0]))
+            if why is None:
+                self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
+            else:
+                self._refuse(p, cmd, msg.MAV_RESULT_FAILED, why)
         else:
             self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
 
