@@ -68,8 +68,10 @@ Operations (MAVLink's, with ArduPilot's answers where it has one):
 - MISSION_CLEAR_ALL, and an upload of no items or of home alone, clear
   the target; refused (``DENIED``, with a STATUSTEXT) while the vehicle is
   armed in TARGET, flying to it (ArduPilot keeps a running mission too);
-- MISSION_SET_CURRENT 1 with a target: MISSION_CURRENT at once; another
-  number: a STATUSTEXT says why not;
+- MISSION_SET_CURRENT and MAV_CMD_DO_SET_MISSION_CURRENT (``set_current``;
+  the command is acknowledged by the endpoint, ACCEPTED or FAILED as
+  ArduPilot's): 1 with a target is MISSION_CURRENT at once; another number
+  a STATUSTEXT saying why not;
 - MISSION_CURRENT goes with the status stream (``SR_STATUS``, ArduPilot's
   EXTENDED_STATUS group) and after every change: seq 1 and total 1 with a
   target (ArduPilot's total leaves home out), seq 0 and total 65535
@@ -485,15 +487,21 @@ class Mission:
             self._ack(p.sysid, p.compid, msg.MAV_MISSION_UNSUPPORTED, mtype)
 
     def _set_current(self, seq):
+        why = self.set_current(seq)
+        if why is not None:
+            self.ep.send_text(msg.MAV_SEVERITY_WARNING, why)
+
+    def set_current(self, seq):
+        """MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT: only the target
+        (item 1) can be current, and is; None when it is (MISSION_CURRENT
+        sent), else why not."""
         has = self.ep.t.has_target
         if seq == TARGET_SEQ and has:
             self.send_current()
-        elif seq == HOME_SEQ:
-            self.ep.send_text(msg.MAV_SEVERITY_WARNING,
-                              "mission: item 0 is home (the release point); the target is item 1")
-        else:
-            self.ep.send_text(msg.MAV_SEVERITY_WARNING, "mission: no item %d; the mission is home (0)%s"
-                              % (seq, " and the target (1)" if has else ", no target"))
+            return None
+        if seq == HOME_SEQ:
+            return "mission: item 0 is home (the release point); the target is item 1"
+        return "mission: no item %d; the mission is home (0)%s" % (seq, " and the target (1)" if has else ", no target")
 
     # ---------------------------------------------------------- sending
     def _ack(self, sysid, compid, result, mtype):
