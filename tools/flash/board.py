@@ -48,6 +48,8 @@ TMP_SUFFIX = ".~new"
 
 #: File bytes a command carries (base64: 4 kB of text a command).
 CHUNK_BYTES = 3072
+#: File bytes a read brings back (base64 on the board's stdout).
+GET_CHUNK_BYTES = 6144
 
 # Helpers defined once a session in the board's REPL namespace. MicroPython
 # code: it runs on the board.
@@ -107,6 +109,18 @@ def _rf_commit(tmp, dst, want):
     else:
         os.remove(tmp)
     print(got)
+def _rf_ls(d):
+    r = []
+    try:
+        for n in os.listdir(d):
+            r.append([n, _rf_size(d + '/' + n)])
+    except OSError:
+        pass
+    print(json.dumps(r))
+def _rf_get(p, o, n):
+    with open(p, 'rb') as f:
+        f.seek(o)
+        print(binascii.b2a_base64(f.read(n)).decode().strip())
 def _rf_remove(ps, ds):
     for p in ps:
         if _rf_size(p) >= 0:
@@ -282,6 +296,34 @@ class Board:
                 "hash mismatch after copying %s: the board read back sha256 %s, expected %s; "
                 "the old file was left in place (a noisy cable? deploy again)" % (path, got[:16], sha256[:16])
             )
+
+    def listdir(self, folder: str) -> dict[str, int]:
+        """Names in ``folder`` with their sizes (-1: a folder); {} when it is missing."""
+        return {n: size for n, size in self._json("_rf_ls(%r)" % folder, "listing " + folder)}
+
+    def get(self, path: str, size: int, progress=None) -> bytes:
+        """The bytes of ``path`` (``size`` of them), read in base64 chunks;
+        checked against the SHA-256 the board computes."""
+        out = bytearray()
+        while len(out) < size:
+            text = self.exec("_rf_get(%r, %d, %d)" % (path, len(out), GET_CHUNK_BYTES), "reading " + path)
+            try:
+                chunk = base64.b64decode(text.strip())
+            except ValueError:
+                raise ConnectionLost("garbled answer from the board while reading %s" % path) from None
+            if not chunk:
+                break
+            out += chunk
+            if progress is not None:
+                progress(len(chunk))
+        if len(out) != size:
+            raise BoardError("%s: read %d bytes of %d (the file changed while it was read?)" % (path, len(out), size))
+        import hashlib
+
+        want = self.hashes([path])[path]
+        if want != hashlib.sha256(out).hexdigest():
+            raise HashMismatch("hash mismatch reading %s: a noisy cable? copy again" % path)
+        return bytes(out)
 
     def remove(self, paths: Iterable[str], dirs: Iterable[str] = ()) -> None:
         """Remove files, then the folders in ``dirs`` that became empty."""

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
+import time
 from pathlib import Path
 from typing import Optional, Sequence
 
-from roboray.tools.cli import add_json, command, emit, make_parser, positive, run
+from roboray.tools.cli import CliError, UsageError, add_json, command, emit, make_parser, positive, run
 
 log = logging.getLogger("roboray.flash")
 
@@ -130,6 +132,44 @@ def _status_text(r: dict) -> str:
     return "\n".join(lines)
 
 
+def do_logs(args: argparse.Namespace) -> None:
+    """Copy the board's flight logs (/logs/*.BIN) over USB; the ones already here, same size, are skipped."""
+    from roboray.sim import progress
+
+    out_dir = args.out
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise UsageError("--out %s is a file, not a folder" % out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    copied, skipped, nbytes = [], [], 0
+    t0 = time.monotonic()
+    with _board(args) as board:
+        files = {n: s for n, s in board.listdir("/logs").items() if n.endswith(".BIN") and s >= 0}
+        wanted = sorted(files)
+        if args.numbers:
+            names = {"%08d.BIN" % n for n in args.numbers}
+            missing = sorted(names - set(files))
+            if missing:
+                raise CliError("not on the board: %s (it has %s)" % (", ".join(missing), ", ".join(wanted) or "no logs"))
+            wanted = sorted(names)
+        todo = [n for n in wanted if not (os.path.isfile(os.path.join(out_dir, n))
+                                          and os.path.getsize(os.path.join(out_dir, n)) == files[n])]
+        skipped = [n for n in wanted if n not in todo]
+        with progress.bar(args, sum(files[n] for n in todo), "logs", unit="B") as bar:
+            for name in todo:
+                data = board.get("/logs/" + name, files[name], progress=bar.update)
+                tmp = os.path.join(out_dir, name + ".part")
+                with open(tmp, "wb") as f:
+                    f.write(data)
+                os.replace(tmp, os.path.join(out_dir, name))
+                copied.append(name)
+                nbytes += len(data)
+    seconds = time.monotonic() - t0
+    r = {"port": board.device, "folder": out_dir, "copied": copied, "skipped": skipped, "bytes": nbytes,
+         "seconds": round(seconds, 2), "bytes_per_s": round(nbytes / seconds) if seconds > 0 else None}
+    emit(args, r, lambda r: "%d log(s) copied to %s (%d bytes in %.1f s), %d already there"
+         % (len(r["copied"]), r["folder"], r["bytes"], r["seconds"], len(r["skipped"])))
+
+
 def do_virtual_board(args: argparse.Namespace) -> None:
     """Serve a MicroPython board on a pseudo-terminal until interrupted."""
     from roboray.tools.micropython.virtual_board import VirtualBoard, twin_builtins
@@ -190,6 +230,12 @@ def build_parser():
     p = command(sub, "status", do_status, "compare the board's files with the build")
     _board_options(p)
     _build_options(p)
+    add_json(p)
+
+    p = command(sub, "logs", do_logs, "copy the board's flight logs (/logs/*.BIN) over USB, much faster than the radio")
+    _board_options(p)
+    p.add_argument("numbers", nargs="*", type=int, metavar="N", help="only these log numbers (default: all)")
+    p.add_argument("--out", default="logs", metavar="DIR", help="folder to copy them into (default ./logs)")
     add_json(p)
 
     p = command(sub, "virtual-board", do_virtual_board,
