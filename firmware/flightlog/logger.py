@@ -164,6 +164,7 @@ class FlightLog:
         self._last_us = ticks_us()
         self._euler = array("f", [0.0, 0.0, 0.0])
         self._n = 0
+        self._mode = -1
         self._still = 0
         self._resting = False
         self.armed = False
@@ -209,6 +210,8 @@ class FlightLog:
         self._flush_wait = 0
         self.logs_started += 1
         self.msg(reason_text)
+        if self._mode >= 0:
+            self.mode(self._mode)     # the mode the log starts in
         return True
 
     def _drain(self):
@@ -262,9 +265,20 @@ class FlightLog:
                              subsys, code)
 
     # ------------------------------------------------------------ the task
-    def step(self, armed):
-        """The log task (50 Hz): arming and disarming, the periodic records,
-        failsafe changes, fixes, and a flush when the vehicle is still."""
+    def erased(self):
+        """The logs were erased (LOG_ERASE, disarmed): nothing waits for a file any more."""
+        self.w.clear()
+        self.files.current = 0
+        self._create = False
+        self.logging = False
+
+    def step(self, armed, mode=-1):
+        """The log task (50 Hz): arming and disarming, mode changes, the
+        periodic records, failsafe changes, fixes, and a flush when the
+        vehicle is still."""
+        if mode != self._mode:
+            self._mode = mode
+            self.mode(mode)
         if armed != self.armed:
             self.armed = armed
             if armed:
