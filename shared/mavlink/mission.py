@@ -98,7 +98,9 @@ the distance, else ``INVALID_PARAM6_Y``.
 
 Allocation: state in attributes and one ``array('f')`` made here; handling
 a frame unpacks one tuple and boxes its floats (as the endpoint's handling
-does); the status stream's MISSION_CURRENT and ``tick`` allocate nothing.
+does); the status stream's MISSION_CURRENT, ``tick`` and asking again
+allocate nothing but the endpoint's 16-byte view of each frame written
+(``tests/test_mission.py`` measures them on MicroPython).
 Refusal texts are formatted when they are sent.
 """
 
@@ -354,7 +356,7 @@ class Mission:
             self.receiving = False
             self.cancelled += 1
             self._ack(self._up_sys, self._up_comp, msg.MAV_MISSION_OPERATION_CANCELLED, _MISSION)
-            self.ep.send_text(msg.MAV_SEVERITY_WARNING, "mission: upload cancelled, no item %d after %d requests"
+            self.ep.send_text(msg.MAV_SEVERITY_WARNING, "mission upload cancelled: no item %d (%d requests)"
                               % (self._up_next, RETRIES + 1))
             return
         self._up_tries += 1
