@@ -4,7 +4,7 @@
 sensors after a reset under water (``firmware/resume.py`` keeps it and
 restores it):
 
-- the mode (armed is any mode but DISARMED);
+- the mode and whether the vehicle is armed;
 - the target (north, east and, when the ground gave one, the bottom's depth
   there), which only the ground sent, once;
 - the surface pressure the depth is measured from (``BARO1_GND_PRESS``, set
@@ -26,8 +26,10 @@ The same 16 bytes go into the watchdog's four scratch words
 ======  =====  ==========================================================
 offset  type   field
 ======  =====  ==========================================================
-0       u8     tag ``0xA1``: this format, version 1 (another tag is refused)
-1       u8     mode (bits 0-2), target set (bit 3), target depth set (bit 4)
+0       u8     tag ``0xA2``: this format, version 2 (another tag is refused;
+               version 1 had a DISARMED mode where this has the armed bit)
+1       u8     mode (bits 0-2, ``shared/modes.py`` number), target set
+               (bit 3), target depth set (bit 4), armed (bit 5)
 2       i16    target north, cm (+-327 m)
 4       i16    target east, cm
 6       u16    target depth, cm (0-655 m)
@@ -48,10 +50,11 @@ from roboray.shared import modes as M
 
 #: Bytes of a packed state.
 SIZE = 16
-TAG = 0xA1
+TAG = 0xA2
 _FMT = "<BBhhHHIH"
 _HAS_TARGET = 0x08
 _HAS_DEPTH = 0x10
+_ARMED = 0x20
 _P_MIN = 50000.0
 _BIAS_STEP = 0.0002
 _BIAS_MAX = 511
@@ -84,7 +87,8 @@ class DiveState:
     """The fields (see the module docstring); ``pack``/``unpack`` the bytes."""
 
     def __init__(self):
-        self.mode = M.DISARMED
+        self.mode = M.BOOT_MODE
+        self.armed = False
         self.has_target = False
         self.north = 0.0
         self.east = 0.0
@@ -93,15 +97,11 @@ class DiveState:
         self.surface_pa = 101325.0
         self.bias = [0.0, 0.0, 0.0]
 
-    @property
-    def armed(self):
-        return self.mode != M.DISARMED
-
     def pack(self, buf=None):
         """The 16 bytes (into ``buf`` when given); ValueError on a bad field."""
-        if not 0 <= self.mode < len(M.NAMES):
+        if not M.PASSIVE <= self.mode <= M.FAILSAFE:
             raise ValueError("dive state: mode %r" % (self.mode,))
-        flags = self.mode
+        flags = self.mode | (_ARMED if self.armed else 0)
         north = east = down = 0
         if self.has_target:
             flags |= _HAS_TARGET
@@ -125,9 +125,10 @@ class DiveState:
         if data is None or len(data) != SIZE or data[0] != TAG:
             return False
         tag, flags, north, east, down, p, bias, crc = struct.unpack(_FMT, data)
-        if crc != crc16(data, 14) or (flags & 7) >= len(M.NAMES):
+        if crc != crc16(data, 14) or not M.PASSIVE <= (flags & 7) <= M.FAILSAFE:
             return False
         self.mode = flags & 7
+        self.armed = bool(flags & _ARMED)
         self.has_target = bool(flags & _HAS_TARGET)
         self.north = north * 0.01
         self.east = east * 0.01

@@ -10,10 +10,20 @@ one that fails now and then does not make it flap), and its bit in SYS_STATUS ``
 Actions (one code set for all, ArduSub's where it has one):
 0 off (not even reported), 1 warn (report only), 2 disarm, 3 FAILSAFE mode
 (hold the safe wing configuration ``FS_WING_DEG``; our counterpart of
-ArduSub's depth hold / surface). An action applies once, when the condition
-appears, and only while armed, except for a leak, which folds the wings even
-on deck (``shared/modes.py``); the operator can then take over (switch to
-PASSIVE or disarm) and is not overridden while the condition lasts.
+ArduSub's SURFACE, whose number it has). An action applies once, when the
+condition appears (an event, as ArduPilot's failsafes), and only while
+armed: disarmed, the servos are at the safe position already and the
+arming checks refuse what would be unsafe (ArduSub warns of a leak on deck
+and acts only armed). A vehicle armed again by a resume after a reset
+(``firmware/resume.py``: no arming by the operator) gets the actions of
+the failsafes active then: the dive they would have acted on goes on.
+
+Leaving FAILSAFE: the operator may select any mode once the failsafes that
+switched to it have cleared (``failsafe_held()``, for ``shared/modes.py``:
+while one is active a request is refused, and a "FAILSAFE held: ..."
+STATUSTEXT names it); disarming is always allowed. A failsafe that only
+warns holds nothing, and the operator is never overridden while a
+condition lasts: only its next appearance acts again.
 
 ====  ===============  ===============================================  =====================  =======
 bit   failsafe         condition                                        parameters             default
@@ -49,11 +59,11 @@ No sensor is failed for a reading that stays the same: a vehicle resting on
 the bottom reads the same depth, attitude and field for as long as it
 rests, and that raises nothing. A lock-up itself is the scheduler's to
 catch (it stops feeding the watchdog); this module reports it after the
-reset and applies FS_LOCKUP_ACT (3 puts the board, disarmed by the reset,
-into FAILSAFE mode).
+reset and applies FS_LOCKUP_ACT once the board is armed again (3: a dive
+resumed after the reset goes on in FAILSAFE mode).
 
-Arming checks (``arming_check()``, for ``shared/modes.py``; ``ARMING_CHECK``
-0 skips them): no leak, IMU, depth sensor and compass healthy, battery not
+Arming checks (``arming_check()``, for ``shared/modes.py``, which then
+checks the mode it arms in; ``ARMING_CHECK`` 0 skips them): no leak, IMU, depth sensor and compass healthy, battery not
 low and its monitor working, attitude and depth estimates valid. Mode checks
 (``mode_check(mode)``): ATTITUDE, VELOCITY and TARGET need a controller in
 the firmware and a valid attitude; VELOCITY and TARGET a valid position;
@@ -231,6 +241,10 @@ class Failsafes:
         self._repeat_i = 0
         self._seen_ms = [0] * COUNT   # when each condition was last true
         self._depth_implausible = False
+        self._holding = 0             # failsafes that switched to FAILSAFE mode, by bit
+        self._held_texts = tuple("FAILSAFE held: %s" % NAMES[i] for i in range(COUNT))
+        self._armed = False           # armed at the last update
+        self._arms = 0                # the operator's armings seen at the last update
 
     def action(self, i):
         """The configured action of failsafe ``i`` (``ACT_*``)."""
@@ -350,6 +364,12 @@ class Failsafes:
                 held |= bit
         active = held & self._enabled
         rising = active & ~self.active
+        modes = self.modes
+        if modes is not None:
+            if modes.armed and not self._armed and modes.arms == self._arms:
+                rising = active   # resumed armed after a reset: what is active acts now
+            self._armed = modes.armed
+            self._arms = modes.arms
         falling = self.active & ~active
         self.active = active
         if rising:
@@ -384,9 +404,10 @@ class Failsafes:
             if act == ACT_DISARM and modes.armed:
                 modes.disarm()
                 done = ACT_DISARM
-            elif act == ACT_FAILSAFE and (modes.armed or i == LEAK or i == LOCKUP):
+            elif act == ACT_FAILSAFE and modes.armed:
                 if modes.mode != M.FAILSAFE:
                     modes.failsafe(_CAUSES[i])
+                self._holding |= 1 << i
                 done = ACT_FAILSAFE
         self._said[i] = done
         self._say(msg.MAV_SEVERITY_WARNING if done == ACT_WARN else msg.MAV_SEVERITY_CRITICAL,
@@ -453,6 +474,19 @@ class Failsafes:
             self._say(msg.MAV_SEVERITY_WARNING, _PREARM_EKF)
             return M.CHECK_FAILED
         return None
+
+    def failsafe_held(self):
+        """``None`` when FAILSAFE may be left (the failsafes that switched to
+        it have cleared), else ``IN_FAILSAFE`` after a STATUSTEXT naming one."""
+        held = self._holding & self.active
+        self._holding = held
+        if not held:
+            return None
+        i = 0
+        while not (held >> i) & 1:
+            i += 1
+        self._say(msg.MAV_SEVERITY_WARNING, self._held_texts[i])
+        return M.IN_FAILSAFE
 
     def mode_check(self, mode):
         """``None`` when ``mode`` may be entered now, else a reason."""

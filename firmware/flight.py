@@ -4,16 +4,17 @@
 
 1. every fifth call (10 Hz) the failsafes are evaluated, so an action they
    take (FAILSAFE mode, disarm) shapes this very step's commands;
-2. a mode change is acted on: the operator's arming (``Modes.arms``; a
-   mode restored after a reset is none) zeroes the depth at the surface
+2. a change of ``Modes.state`` (the mode when armed, DISARMED when not)
+   is acted on: the operator's arming (``Modes.arms``; a state restored
+   after a reset is none) zeroes the depth at the surface
    (``Navigation.zero_at_surface``) and clears a watchdog reset's report;
    entering a controlled mode resets the controller and gives it its
    setpoint (TARGET: the target from the ground, with its depth when the
    ground gave one, which is the bottom's there; VELOCITY: the ground's
    velocity setpoint, or hold still horizontally at the present descent
    speed; ATTITUDE: level at the present heading);
-3. the wing commands: DISARMED ``SERVO_SAFE_DEG``, PASSIVE
-   ``PASSIVE_WING_DEG``, FAILSAFE ``FS_WING_DEG`` on all four wings;
+3. the wing commands: disarmed ``SERVO_SAFE_DEG`` whatever the mode,
+   PASSIVE ``PASSIVE_WING_DEG``, FAILSAFE ``FS_WING_DEG`` on all four wings;
    ATTITUDE, VELOCITY and TARGET from the controller
    (``roboray.shared.control.Controller``: ``step(t_us, mode, est, out)``),
    which writes the four angles (rad) in place. A controller that raises
@@ -76,7 +77,7 @@ class Flight:
         self._n = 0
         self._changes = modes.changes
         self._arms = modes.arms
-        self._mode = modes.mode
+        self._mode = modes.state
         self._target_seen = -1
         self._velocity_seen = -1
         self._i_safe = params.index("SERVO_SAFE_DEG")
@@ -109,9 +110,9 @@ class Flight:
         modes = self.modes
         if modes.changes != self._changes:
             self._changes = modes.changes
-            self._changed(self._mode, modes.mode)
-            self._mode = modes.mode
-        mode = modes.mode
+            self._changed(self._mode, modes.state)
+            self._mode = modes.state
+        mode = modes.state
         c = self.wings.command
         if mode == M.DISARMED:
             c[0] = c[1] = c[2] = c[3] = self._safe
@@ -152,8 +153,7 @@ class Flight:
 
     def _changed(self, old, new):
         if self.modes.arms != self._arms:
-            # the operator armed (a failsafe that takes a disarmed vehicle to
-            # FAILSAFE is no arming, nor a mode restored after a reset)
+            # the operator armed (a state restored after a reset is no arming)
             self._arms = self.modes.arms
             self.nav.zero_at_surface()
             self.failsafes.on_arm()

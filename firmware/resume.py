@@ -1,17 +1,18 @@
 """A dive survives a reset: the state is kept, and restored under water.
 
 A reset under water (the watchdog's, after a lock-up, or a power cut) used
-to end the mission: the board came back DISARMED, and no one can reach a
+to end the mission: the board came back disarmed, and no one can reach a
 vehicle at 8 m to arm it again. ArduPilot re-arms after a watchdog reset in
 flight; so does this firmware, after a power cut as well, when the vehicle
 is under water.
 
 Keeping. ``Resume.update()`` runs after the control step (50 Hz) and
-compares three counters: mode changes, armings and targets received. When
-one moved (an event, never a step's worth of change) it packs the dive's
-state (``dive_state.DiveState``: mode, target, surface pressure, gyro
-bias) into the watchdog's scratch words at once (``drivers/scratch.py``,
-16 bytes; they survive a watchdog reset) and saves it on flash
+compares three counters: changes of mode or arming, the operator's
+armings and targets received. When one moved (an event, never a step's
+worth of change) it packs the dive's state (``dive_state.DiveState``: mode
+and armed, target, surface pressure, gyro bias) into the watchdog's scratch
+words at once (``drivers/scratch.py``, 16 bytes; they survive a watchdog
+reset) and saves it on flash
 (``flash_record.FlashRecord`` beside the parameters; it survives a power
 cut), telling the scheduler of the flash stall first (``expect_delay``).
 
@@ -23,22 +24,23 @@ first pressure (the loop's first 40 ms or so):
 
 - at least ``RESUME_DEPTH_M`` under the stored surface: the vehicle is in
   the water. The target goes back to the telemetry, the gyro bias and a
-  short alignment to the estimator (``Estimator.resume``), and the mode to
-  ``Modes.restore`` (armed, no arming checks: it is no new arming, so the
-  depth is not zeroed again);
+  short alignment to the estimator (``Estimator.resume``), and the mode,
+  armed, to ``Modes.restore`` (no arming checks: it is no new arming, so
+  the depth is not zeroed again; the failsafes act on what is active then,
+  ``firmware/failsafe.py``);
 - shallower: it may be a vehicle that is just sinking after a reset at the
   surface, so the decision waits, up to ``SURFACE_WAIT_MS``, for the depth
   to pass ``RESUME_DEPTH_M``; a board that stays shallower (on the bench,
-  on deck, switched off armed) stays DISARMED, and the state is saved
-  disarmed so it does not come back;
-- no pressure within ``DEPTH_WAIT_MS``: DISARMED (nothing says where it is).
+  on deck, switched off armed) stays disarmed in the boot's mode, and the
+  state is saved disarmed so it does not come back;
+- no pressure within ``DEPTH_WAIT_MS``: disarmed (nothing says where it is).
 
-Any mode the operator or a failsafe chooses meanwhile wins: ``restore``
-acts from DISARMED only.
+Any mode or arming the operator or a failsafe chooses meanwhile wins: the
+decision is dropped when the mode or the arming changed since the boot.
 
 Reporting. The decision goes to the ground as a STATUSTEXT naming the
 reset's cause and the depth ("Watchdog reset at 3.2 m: resumed TARGET",
-"Power lost at 0.0 m (surface): DISARMED"), CRITICAL when it resumed,
+"Power lost at 0.0 m (surface): disarmed"), CRITICAL when it resumed,
 WARNING when it did not, sent again every ``TEXT_RETRY_MS`` until a
 ground heartbeat arrives after it, and printed on the console.
 """
@@ -169,8 +171,8 @@ class Resume:
         if self.source is None:
             return "dive state: none kept"
         s = self.state
-        return "dive state from %s: %s%s" % (
-            self.source, M.NAMES[s.mode],
+        return "dive state from %s: %s%s%s" % (
+            self.source, M.NAMES[s.mode], "" if s.armed else ", disarmed",
             ", waiting for the depth to resume" if self.pending else "")
 
     def _decide(self, now):
@@ -187,14 +189,14 @@ class Resume:
             return
         if not nav.depth_samples:
             if waited >= DEPTH_WAIT_MS:
-                self._give_up("%s, no depth reading: DISARMED")
+                self._give_up("%s, no depth reading: disarmed")
             return
         d = (nav.depth.pressure_pa - self.state.surface_pa) / self._rho_g
         self.depth_m = d
         if d >= RESUME_DEPTH_M:
             self._prepare(now)
         elif waited >= SURFACE_WAIT_MS:
-            self._give_up("%s at %.1f m (surface): DISARMED")
+            self._give_up("%s at %.1f m (surface): disarmed")
 
     def _cause_text(self):
         c = self.cause
@@ -229,7 +231,7 @@ class Resume:
     def _restore(self):
         s = self.state
         self.pending = False
-        if not self.modes.restore(s.mode):
+        if not self.modes.restore(s.mode, True):
             return
         self.resumed = s.mode
         self._changes = self.modes.changes
@@ -276,6 +278,7 @@ class Resume:
         """The state now into the scratch words and on flash."""
         s = self.state
         s.mode = self.modes.mode
+        s.armed = self.modes.armed
         t = self.t
         s.has_target = t.has_target
         g = t.target_ned

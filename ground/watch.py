@@ -107,9 +107,8 @@ class State:
         return ok
 
     def mode_name(self) -> str:
-        if 0 <= self.mode < len(vehicle_modes.NAMES):
-            return vehicle_modes.NAMES[self.mode]
-        return "?" if self.mode < 0 else "MODE %d" % self.mode
+        """RoboRay's name of the heartbeat's ``custom_mode`` (``shared/modes.py``)."""
+        return "?" if self.mode < 0 else vehicle_modes.custom_name(self.mode)
 
 
 def _f(x: float, fmt: str) -> str:

@@ -1,34 +1,53 @@
-"""Flight modes and their transitions, arming and disarming.
+"""Flight modes, arming, and their MAVLink numbers.
 
-Modes (their numbers are HEARTBEAT's ``custom_mode``):
+Arming is a flag, as on every ArduPilot vehicle: the mode is kept across
+arming and disarming, and a disarmed vehicle holds its servos at the safe
+position (``SERVO_SAFE_DEG``) whatever its mode. The board starts
+disarmed in PASSIVE.
 
-========  ==  ================================================================
-DISARMED   0  servos at the safe position; the only unarmed mode
-PASSIVE    1  a fixed wing configuration (``PASSIVE_WING_DEG``)
-ATTITUDE   2  attitude held by the controller
-VELOCITY   3  horizontal velocity and descent speed held
-TARGET     4  land at a point on the bottom
-FAILSAFE   5  the configured safe configuration (``FS_WING_DEG``)
-========  ==  ================================================================
+Modes (internal number; HEARTBEAT ``custom_mode``, ArduSub's number for the
+mode that does the same, so MAVProxy, pymavlink and QGroundControl, which
+name a MAV_TYPE_SUBMARINE's modes from ArduSub's table, show a name that
+says what it does and switch to each mode by that name; docs/design/
+handshake.md has the reasons):
 
-Transitions (``TRANSITIONS[from]`` is a bit set of the modes one may
-request from there):
+========  ==  ======  =========  =============================================
+mode      #   custom  ArduSub    what the wings do
+========  ==  ======  =========  =============================================
+PASSIVE   1   19      MANUAL     a fixed configuration (``PASSIVE_WING_DEG``)
+ATTITUDE  2   0       STABILIZE  attitude held by the controller
+VELOCITY  3   4       GUIDED     the ground's velocity setpoint held
+TARGET    4   3       AUTO       land at the target (the mission's one item)
+FAILSAFE  5   9       SURFACE    the safe configuration (``FS_WING_DEG``)
+========  ==  ======  =========  =============================================
 
-- DISARMED: only by arming (``arm()``), which lands in PASSIVE; any other
-  request is refused with ``NOT_ARMED``.
-- PASSIVE, ATTITUDE, VELOCITY, TARGET: to each other freely.
-- FAILSAFE: reachable from every mode, DISARMED included (a leak while on
-  deck still folds the wings); left only for PASSIVE or by disarming,
-  so the operator takes over from a known configuration.
-- ``disarm()`` is allowed from every mode.
-- ``restore(mode)``: the firmware puts back the mode a reset under water
-  interrupted (``firmware/resume.py``), from DISARMED only, without the
-  checks: it is no arming by the operator (``arms`` counts those).
+``Modes.state`` is what the vehicle does: its mode when armed, ``DISARMED``
+(0, no mode) when not; the controller (``step(t, state, ...)``), the twin's
+records and the board time model index by it, and ``NAMES[state]`` names it.
 
-Arming and mode checks come from the firmware through ``checks``, an
-object with ``arming_check() -> reason or None`` and, optionally,
-``mode_check(mode) -> reason or None`` (e.g. TARGET needs a position
-fix). Reasons are the module's string constants, never built per call, and
+Rules (ArduPilot's):
+
+- any mode may be selected while disarmed; the checks come at arming
+  (``arming_check()``, then ``mode_check(mode)`` for the mode it arms in),
+  as ArduCopter defers a disarmed vehicle's mode checks to its arming;
+- armed, a mode is entered when ``mode_check(mode)`` passes (TARGET needs a
+  position estimate and a target);
+- a failsafe is an event: it switches to FAILSAFE once, when its condition
+  appears (``failsafe(cause)``), and FAILSAFE is then a mode like the
+  others. The operator may select another as soon as the cause is gone:
+  while the failsafe that switched it is still active, ``checks.
+  failsafe_held()`` refuses (``IN_FAILSAFE``). FAILSAFE the operator chose
+  is left freely;
+- ``disarm()`` is always allowed and keeps the mode;
+- ``restore(mode, armed)``: the firmware puts back the state a reset under
+  water interrupted (``firmware/resume.py``), while nobody has changed it
+  since the boot, without the checks: it is no arming by the operator
+  (``arms`` counts those).
+
+Checks come from the firmware through ``checks``, an object with
+``arming_check() -> reason or None`` and, optionally, ``mode_check(mode)``
+and ``failsafe_held()``, each returning a reason or None. Reasons are the
+module's string constants, never built per call, and
 ``REASONS.index(reason)`` is the number sent in COMMAND_ACK's
 ``result_param2``. ``request`` returns one of a fixed set of tuples, so a
 refused or accepted request allocates nothing.
@@ -40,22 +59,33 @@ except ImportError:  # CPython
     def const(x):
         return x
 
-DISARMED = const(0)
+DISARMED = const(0)   # no mode: Modes.state of a disarmed vehicle
 PASSIVE = const(1)
 ATTITUDE = const(2)
 VELOCITY = const(3)
 TARGET = const(4)
 FAILSAFE = const(5)
+COUNT = const(6)      # state numbers: DISARMED and the five modes
 
+#: Names by state number (``NAMES[DISARMED]`` names the disarmed state).
 NAMES = ("DISARMED", "PASSIVE", "ATTITUDE", "VELOCITY", "TARGET", "FAILSAFE")
+#: The modes, in the order AVAILABLE_MODES lists them (its index - 1).
+MODES = (PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE)
+#: HEARTBEAT ``custom_mode`` by mode number (ArduSub's: MANUAL, STABILIZE,
+#: GUIDED, AUTO, SURFACE); index 0 unused.
+CUSTOM = (-1, 19, 0, 4, 3, 9)
+#: The name MAVProxy, pymavlink and QGroundControl show for each mode
+#: (pymavlink's ``mode_mapping_sub``); ``roboray-ground mode`` takes them too.
+ARDUSUB_NAMES = ("", "MANUAL", "STABILIZE", "GUIDED", "AUTO", "SURFACE")
+#: MAV_STANDARD_MODE by mode number: TARGET flies the mission's one item
+#: (MISSION, 6); the others match none (NON_STANDARD, 0).
+STANDARD = (0, 0, 0, 0, 6, 0)
+BOOT_MODE = PASSIVE
 
 # Reasons: fixed strings, numbered by their place in REASONS.
 OK = "ok"
-NOT_ARMED = "not armed: arm first"
-ALREADY_ARMED = "already armed"
 UNKNOWN_MODE = "unknown mode"
-IN_FAILSAFE = "in FAILSAFE: switch to PASSIVE or disarm first"
-INVALID_TRANSITION = "transition not allowed"
+IN_FAILSAFE = "in FAILSAFE until its cause clears (or disarm)"
 NO_POSITION = "no position estimate"
 NO_TARGET = "no target set"
 SENSOR_FAULT = "sensor fault"
@@ -64,19 +94,8 @@ LOW_BATTERY = "battery low"
 NO_ATTITUDE = "no attitude estimate"
 CHECK_FAILED = "pre-arm check failed"
 
-REASONS = (OK, NOT_ARMED, ALREADY_ARMED, UNKNOWN_MODE, IN_FAILSAFE, INVALID_TRANSITION,
-           NO_POSITION, NO_TARGET, SENSOR_FAULT, LEAK, LOW_BATTERY, NO_ATTITUDE, CHECK_FAILED)
-
-_FLIGHT = (1 << PASSIVE) | (1 << ATTITUDE) | (1 << VELOCITY) | (1 << TARGET)
-#: Modes requestable from each mode (bit m set: mode m allowed), by mode.
-TRANSITIONS = (
-    (1 << DISARMED) | (1 << FAILSAFE),              # DISARMED: the rest needs arm()
-    _FLIGHT | (1 << DISARMED) | (1 << FAILSAFE),    # PASSIVE
-    _FLIGHT | (1 << DISARMED) | (1 << FAILSAFE),    # ATTITUDE
-    _FLIGHT | (1 << DISARMED) | (1 << FAILSAFE),    # VELOCITY
-    _FLIGHT | (1 << DISARMED) | (1 << FAILSAFE),    # TARGET
-    (1 << PASSIVE) | (1 << DISARMED) | (1 << FAILSAFE),  # FAILSAFE
-)
+REASONS = (OK, UNKNOWN_MODE, IN_FAILSAFE, NO_POSITION, NO_TARGET, SENSOR_FAULT, LEAK, LOW_BATTERY,
+           NO_ATTITUDE, CHECK_FAILED)
 
 # HEARTBEAT base_mode flags (MAV_MODE_FLAG)
 _FLAG_CUSTOM_MODE_ENABLED = const(1)
@@ -100,43 +119,78 @@ def refusal(reason):
     return r if r is not None else (False, reason)
 
 
+def from_custom(custom):
+    """The mode of a HEARTBEAT ``custom_mode``, -1 if none."""
+    for m in MODES:
+        if CUSTOM[m] == custom:
+            return m
+    return -1
+
+
+def from_standard(standard):
+    """The mode of a MAV_STANDARD_MODE, -1 if none (NON_STANDARD is none)."""
+    if standard == 0:
+        return -1
+    for m in MODES:
+        if STANDARD[m] == standard:
+            return m
+    return -1
+
+
 def mode_number(name):
-    """Mode number for a name (any case), -1 if unknown (host side)."""
+    """The mode of a name (any case), RoboRay's or the ArduSub name ground
+    stations show; -1 if none (DISARMED is no mode). Host side."""
     name = name.upper()
-    return NAMES.index(name) if name in NAMES else -1
+    for m in MODES:
+        if NAMES[m] == name or ARDUSUB_NAMES[m] == name:
+            return m
+    return -1
+
+
+def custom_name(custom):
+    """RoboRay's name of a HEARTBEAT ``custom_mode`` (``MODE n`` if none). Host side."""
+    m = from_custom(custom)
+    return NAMES[m] if m >= 0 else "MODE %d" % custom
 
 
 class Modes:
-    """The current mode and the rules for changing it.
+    """The mode, the armed flag and the rules for changing them.
 
     Parameters
     ----------
     checks:
         Firmware object with ``arming_check()`` and optionally
-        ``mode_check(mode)``, each returning a reason string or None.
-        None means no checks (tests, bench).
+        ``mode_check(mode)`` and ``failsafe_held()``, each returning a
+        reason string or None. None means no checks (tests, bench).
+
+    Attributes: ``mode`` (a mode number), ``armed``, ``state`` (``mode``
+    when armed, else DISARMED), ``intended`` (the mode the operator last
+    chose: CURRENT_MODE's ``intended_custom_mode``), ``changes`` (counts
+    changes of the mode or the arming, so the firmware can react to one
+    per cycle),
+    ``arms`` (the operator's armings), ``failsafe_cause`` (why FAILSAFE was
+    last entered, a reason constant), ``last_refusal``.
     """
 
     def __init__(self, checks=None):
-        self.mode = DISARMED
+        self.mode = BOOT_MODE
+        self.armed = False
+        self.state = DISARMED
+        self.intended = BOOT_MODE
         self.checks = checks
         self._arming_check = getattr(checks, "arming_check", None) if checks is not None else None
         self._mode_check = getattr(checks, "mode_check", None) if checks is not None else None
-        #: Counts mode changes, so the firmware can react to one per cycle.
+        self._held = getattr(checks, "failsafe_held", None) if checks is not None else None
         self.changes = 0
-        #: Counts the operator's armings (``arm()`` accepted).
         self.arms = 0
-        #: Reason of the last FAILSAFE entry (a constant), or OK.
         self.failsafe_cause = OK
         self.last_refusal = OK
 
-    @property
-    def armed(self):
-        return self.mode != DISARMED
-
-    def _set(self, mode):
-        if mode != self.mode:
+    def _set(self, mode, armed):
+        if mode != self.mode or armed != self.armed:
             self.mode = mode
+            self.armed = armed
+            self.state = mode if armed else DISARMED
             self.changes += 1
         return ACCEPTED
 
@@ -145,77 +199,86 @@ class Modes:
         return refusal(reason)
 
     def request(self, mode):
-        """Ask for ``mode``; ``(accepted, reason)``, a constant tuple."""
-        if not 0 <= mode < len(NAMES):
+        """The operator asks for ``mode``; ``(accepted, reason)``, a constant tuple."""
+        if not PASSIVE <= mode <= FAILSAFE:
             return self._refuse(UNKNOWN_MODE)
         if mode == self.mode:
+            self.intended = mode
             return ACCEPTED
+        if self.armed:
+            if self.mode == FAILSAFE and self._held is not None:
+                reason = self._held()
+                if reason is not None:
+                    return self._refuse(reason)
+            if self._mode_check is not None:
+                reason = self._mode_check(mode)
+                if reason is not None:
+                    return self._refuse(reason)
         if mode == FAILSAFE:
-            return self.failsafe(OK)
-        if mode == DISARMED:
-            return self.disarm()
-        if not (TRANSITIONS[self.mode] >> mode) & 1:
-            if self.mode == DISARMED:
-                return self._refuse(NOT_ARMED)
-            if self.mode == FAILSAFE:
-                return self._refuse(IN_FAILSAFE)
-            return self._refuse(INVALID_TRANSITION)
-        if self._mode_check is not None:
-            reason = self._mode_check(mode)
-            if reason is not None:
-                return self._refuse(reason)
-        return self._set(mode)
+            self.failsafe_cause = OK
+        self.intended = mode
+        return self._set(mode, self.armed)
 
     def arm(self, force=False):
-        """DISARMED -> PASSIVE when the arming check passes (``force`` skips it)."""
-        if self.mode != DISARMED:
-            return self._refuse(ALREADY_ARMED)
-        if self._arming_check is not None and not force:
-            reason = self._arming_check()
-            if reason is not None:
-                return self._refuse(reason)
+        """Arm in the present mode when the arming check and the mode's
+        check pass (``force`` skips both); arming an armed vehicle is accepted."""
+        if self.armed:
+            return ACCEPTED
+        if not force:
+            if self._arming_check is not None:
+                reason = self._arming_check()
+                if reason is not None:
+                    return self._refuse(reason)
+            if self._mode_check is not None:
+                reason = self._mode_check(self.mode)
+                if reason is not None:
+                    return self._refuse(reason)
         self.arms += 1
-        return self._set(PASSIVE)
+        return self._set(self.mode, True)
 
-    def restore(self, mode):
-        """Back to ``mode`` after a reset (from DISARMED, no checks); False
-        when not DISARMED (someone chose a mode since) or ``mode`` is unknown."""
-        if self.mode != DISARMED or not 0 <= mode < len(NAMES):
+    def disarm(self):
+        """Always allowed: the servos go to the safe position, the mode stays."""
+        return self._set(self.mode, False)
+
+    def failsafe(self, cause):
+        """A failsafe switches to FAILSAFE; ``cause`` is a reason constant."""
+        self.failsafe_cause = cause
+        return self._set(FAILSAFE, self.armed)
+
+    def restore(self, mode, armed):
+        """Back to ``mode`` (armed or not) after a reset, without the checks;
+        False when the vehicle was armed since the boot or ``mode`` is unknown."""
+        if self.armed or not PASSIVE <= mode <= FAILSAFE:
             return False
         if mode == FAILSAFE:
             self.failsafe_cause = CHECK_FAILED
-        self._set(mode)
+        else:
+            self.intended = mode
+        self._set(mode, armed)
         return True
-
-    def disarm(self):
-        """Always allowed: servos go to the safe position."""
-        return self._set(DISARMED)
-
-    def failsafe(self, cause):
-        """Enter FAILSAFE from any mode; ``cause`` is a reason constant."""
-        self.failsafe_cause = cause
-        return self._set(FAILSAFE)
 
     # ----------------------------------------------------- MAVLink mapping
     def custom_mode(self):
-        return self.mode
+        return CUSTOM[self.mode]
 
     def base_mode(self):
-        """HEARTBEAT base_mode: custom mode always, armed, stabilised, guided."""
+        """HEARTBEAT base_mode: custom mode always; armed; stabilised in the
+        controlled modes, guided where the ground gives the goal (ArduSub's
+        GUIDED and AUTO)."""
         m = self.mode
         flags = _FLAG_CUSTOM_MODE_ENABLED
-        if m != DISARMED:
+        if self.armed:
             flags |= _FLAG_SAFETY_ARMED
         if m == ATTITUDE or m == VELOCITY or m == TARGET:
             flags |= _FLAG_STABILIZE_ENABLED
-        if m == TARGET:
-            flags |= _FLAG_GUIDED_ENABLED
+            if m != ATTITUDE:
+                flags |= _FLAG_GUIDED_ENABLED
         return flags
 
     def system_status(self):
-        """HEARTBEAT system_status (MAV_STATE)."""
+        """HEARTBEAT system_status (MAV_STATE): standby disarmed, critical in FAILSAFE."""
+        if not self.armed:
+            return _STATE_STANDBY
         if self.mode == FAILSAFE:
             return _STATE_CRITICAL
-        if self.mode == DISARMED:
-            return _STATE_STANDBY
         return _STATE_ACTIVE

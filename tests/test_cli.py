@@ -153,7 +153,7 @@ def test_sim_help_says_what_each_option_does(argv, words, capsys):
 
 @pytest.mark.parametrize("argv, words", [
     (("disarm",), ["this vehicle never refuses to disarm, so it changes nothing"]),
-    (("mode",), ["NAME the mode, in any case: DISARMED, PASSIVE"]),
+    (("mode",), ["NAME the mode, in any case: PASSIVE, ATTITUDE", "MANUAL, STABILIZE, GUIDED, AUTO or SURFACE"]),
     (("target",), ["NORTH metres north of the release point", "EAST metres east", "--down D the bottom's depth",
                    "CTL_DEPTH_M"]),
     (("status",), ["before or after the command", "auto: the one SiK radio", "$ROBORAY_MASTER"]),

@@ -1,6 +1,7 @@
 """The controller under the mode logic: what the wings do in each mode,
-through accepted and refused transitions, FAILSAFE from every mode, the
-integrators' reset, an invalid estimate, parameters changed in flight."""
+armed and disarmed, through accepted and refused transitions, FAILSAFE from
+every mode, the integrators' reset, an invalid estimate, parameters changed
+in flight."""
 
 from __future__ import annotations
 
@@ -21,16 +22,20 @@ STEP_US = 20000
 
 
 class Checks:
-    """The firmware's checks: TARGET needs a target."""
+    """The firmware's checks: TARGET needs a target; FAILSAFE a failsafe chose is held while ``held``."""
 
     def __init__(self, ctl):
         self.ctl = ctl
+        self.held = None
 
     def arming_check(self):
         return None
 
     def mode_check(self, mode):
         return M.NO_TARGET if mode == M.TARGET and not self.ctl.target_set else None
+
+    def failsafe_held(self):
+        return self.held
 
 
 def flying_estimate(descent=0.44):
@@ -66,16 +71,17 @@ class Vehicle:
     def step(self, n=1):
         for _ in range(n):
             self.t += STEP_US
-            self.ctl.step(self.t, self.modes.mode, self.est, self.out)
+            self.ctl.step(self.t, self.modes.state, self.est, self.out)
         return [round(math.degrees(v), 3) for v in self.out]
 
 
 @pytest.mark.parametrize("kind", [Controller, BacksteppingController])
 def test_fixed_modes_write_their_configured_wings(table, kind):
     v = Vehicle(table, kind)
-    assert v.step() == [10.0] * 4                      # DISARMED: the safe position
-    assert v.modes.request(M.TARGET) == (False, M.NOT_ARMED)
+    assert v.step() == [10.0] * 4                      # disarmed: the safe position
+    assert v.modes.request(M.FAILSAFE) == M.ACCEPTED   # any mode, disarmed: still the safe position
     assert v.step() == [10.0] * 4
+    assert v.modes.request(M.PASSIVE) == M.ACCEPTED
     assert v.modes.arm() == M.ACCEPTED
     assert v.step() == [30.0] * 4                      # PASSIVE
     assert v.modes.request(M.TARGET) == (False, M.NO_TARGET)
@@ -88,21 +94,22 @@ def test_fixed_modes_write_their_configured_wings(table, kind):
         assert steered != [30.0] * 4                   # the thesis's law acts (it does not steer)
     assert v.modes.failsafe(M.LEAK) == M.ACCEPTED
     assert v.step() == [80.0] * 4                      # FAILSAFE: the configured fold, at once
-    assert v.modes.request(M.VELOCITY) == (False, M.IN_FAILSAFE)
+    v.modes.checks.held = M.IN_FAILSAFE                # the leak lasts
+    assert v.modes.request(M.PASSIVE) == (False, M.IN_FAILSAFE)
     assert v.step() == [80.0] * 4
+    v.modes.checks.held = None
     assert v.modes.request(M.PASSIVE) == M.ACCEPTED
     assert v.step() == [30.0] * 4
-    assert v.modes.disarm() == M.ACCEPTED
+    assert v.modes.disarm() == M.ACCEPTED and v.modes.mode == M.PASSIVE
     assert v.step() == [10.0] * 4
 
 
-@pytest.mark.parametrize("start", [M.DISARMED, M.PASSIVE, M.ATTITUDE, M.VELOCITY, M.TARGET])
+@pytest.mark.parametrize("start", [M.PASSIVE, M.ATTITUDE, M.VELOCITY, M.TARGET])
 def test_failsafe_from_every_mode_folds_the_wings(table, start):
     v = Vehicle(table)
     v.ctl.set_target(1.0, 1.0)
-    if start != M.DISARMED:
-        v.modes.arm()
-        assert v.modes.request(start) == M.ACCEPTED
+    v.modes.arm()
+    assert v.modes.request(start) == M.ACCEPTED
     v.step(20)
     assert v.modes.request(M.FAILSAFE) == M.ACCEPTED
     assert v.step() == [80.0] * 4

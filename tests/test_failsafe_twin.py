@@ -43,16 +43,23 @@ def modes_since(report, t):
     return [m for when, m in report["modes"] if when >= t]
 
 
+def arming_since(report, t):
+    return [a for when, a in report["arming"] if when >= t]
+
+
 def reported(report, bit):
     return bool(report["failsafe_flags_reported"] & (1 << bit))
 
 
 def test_a_leak_puts_the_vehicle_in_failsafe_mode_and_says_so():
-    r = fly("leak@13")
+    # the operator tries to leave FAILSAFE while the leak lasts (latched): refused, named
+    r = fly("leak@13", operator=[Action(15.0, "mode", ("PASSIVE",), max_tries=1)])
     assert names(r) == ["leak"]
     assert 13.0 <= first(r, "leak") <= 13.5          # three 50 ms samples of debounce, 10 Hz evaluation
-    assert modes_since(r, 13.0)[0] == "FAILSAFE"
+    assert modes_since(r, 13.0) == ["FAILSAFE"] and arming_since(r, 13.0) == []
     assert "Failsafe: leak, FAILSAFE mode" in texts(r)
+    assert r["operator"][-1]["result"].startswith("refused")
+    assert "FAILSAFE held: leak" in texts(r) and "in FAILSAFE until its cause clears (or disarm)" in texts(r)
     assert reported(r, F.LEAK)
     assert r["landed"]
 
@@ -108,15 +115,18 @@ def test_warnings_change_nothing_but_are_reported_and_an_action_set_off_raises_n
     for bit in (F.COMPASS, F.BATTERY, F.OVERRUN, F.MAX_DEPTH):
         assert reported(r, bit)
     assert not reported(r, F.LEAK)
-    assert [m for _, m in r["modes"]] == ["DISARMED", "PASSIVE"]
+    assert [m for _, m in r["modes"]] == ["PASSIVE"]
     assert r["overruns"] > 0 and r["resets"] == 0
 
 
 def test_a_lost_link_holds_the_safe_configuration_and_its_end_is_reported():
-    r = fly("radio-loss@12", "radio-ok@18", params={"FS_GCS_ENABLE": 3})
+    # once the link is back (the failsafe's cause gone) the operator takes over
+    r = fly("radio-loss@12", "radio-ok@18", params={"FS_GCS_ENABLE": 3},
+            operator=[Action(19.0, "mode", ("PASSIVE",))])
     assert names(r) == ["link lost"]
     assert 15.5 <= first(r, "link lost") <= 17.5     # FS_GCS_TIMEOUT 5 s after the last heartbeat
-    assert modes_since(r, 15.0)[0] == "FAILSAFE"
+    assert modes_since(r, 15.0) == ["FAILSAFE", "PASSIVE"]
+    assert r["operator"][-1]["result"] == "accepted" and r["operator"][-1]["t"] >= 19.0
     # the trigger's text went into the void; the end of it and the mode did not
     assert "Failsafe cleared: link lost" in texts(r)
     assert r["failsafes_cleared"][0]["name"] == "link lost"
@@ -125,7 +135,7 @@ def test_a_lost_link_holds_the_safe_configuration_and_its_end_is_reported():
 def test_a_corrupted_link_counts_as_lost_and_can_disarm():
     r = fly("radio-corrupt:0.5@12", params={"FS_GCS_ENABLE": 2})
     assert names(r) == ["link lost"]
-    assert modes_since(r, 15.0)[0] == "DISARMED"
+    assert arming_since(r, 15.0) == ["disarmed"] and modes_since(r, 15.0) == []   # the mode stays
     assert r["bad_frames_from_vehicle"] > 10
 
 
@@ -136,11 +146,12 @@ def test_a_hung_loop_is_reset_by_the_watchdog_and_reported_after_the_reset():
     assert boot == ["reset cause: PWRON_RESET", "reset cause: WDT_RESET"]
     assert names(r)[0] == "watchdog reset"
     assert 14.9 <= first(r, "watchdog reset") <= 15.3   # 1 s watchdog, 2 s start-up grace
-    # under water the board resumes its dive (firmware/resume.py) once its
-    # estimator has realigned, about as FS_LOCKUP_ACT acts: FAILSAFE mode
-    # wins, whichever comes first
+    # under water the board resumes its dive (firmware/resume.py): armed in
+    # PASSIVE again, and FS_LOCKUP_ACT acts on the resumed dive, whether the
+    # resume or the failsafe's report comes first
+    assert arming_since(r, 12.0) == ["disarmed", "armed"]
     after = modes_since(r, 12.0)
-    assert after[0] == "DISARMED" and after[-1] == "FAILSAFE" and set(after) <= {"DISARMED", "PASSIVE", "FAILSAFE"}
+    assert after[-1] == "FAILSAFE" and set(after) <= {"OFF", "PASSIVE", "FAILSAFE"}
     assert "Failsafe: watchdog reset, FAILSAFE mode" in texts(r)
     assert reported(r, F.LOCKUP)
 
@@ -155,13 +166,14 @@ def test_an_overloaded_loop_starves_the_watchdog():
     assert first(r, "loop overruns") < first(r, "watchdog reset")
 
 
-def test_a_leak_on_deck_folds_the_wings():
-    # FAILSAFE is reachable disarmed (shared/modes.py): water in the dome
-    # folds the wings on deck too, and the operator has to disarm first
+def test_a_leak_on_deck_is_reported_and_refuses_arming():
+    # ArduSub's rule: disarmed, a failsafe warns (the servos are at the safe
+    # position already); the arming check refuses with the reason
     r = fly("leak@4", duration=14.0)
     assert names(r)[0] == "leak"
-    assert [m for _, m in r["modes"]] == ["DISARMED", "FAILSAFE"]
-    assert r["operator"][0]["result"].startswith("refused") and "already armed" in texts(r)
+    assert "Failsafe: leak, warning" in texts(r)
+    assert [m for _, m in r["modes"]] == ["PASSIVE"] and [a for _, a in r["arming"]] == ["disarmed"]
+    assert r["operator"][0]["result"].startswith("refused") and "leak detected" in texts(r)
     assert r["released_at_s"] is None
 
 
@@ -171,7 +183,7 @@ def test_arming_is_refused_with_the_reason():
     arm = r["operator"][0]
     assert arm["action"] == "arm" and arm["result"].startswith("refused")
     assert "sensor fault" in texts(r)                 # the refusal's reason, as a STATUSTEXT
-    assert [m for _, m in r["modes"]] == ["DISARMED"]
+    assert [m for _, m in r["modes"]] == ["PASSIVE"] and [a for _, a in r["arming"]] == ["disarmed"]
     assert r["released_at_s"] is None
 
 

@@ -38,9 +38,9 @@ def signed_vehicle():
 def test_arm_mode_disarm(vehicle):
     r = ground("arm", "--master", vehicle.device)
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == "armed"
+    assert r.stdout.strip() == "armed in PASSIVE"
     r = ground("mode", "velocity", "--master", vehicle.device)
-    assert (r.returncode, r.stdout.strip()) == (0, "mode VELOCITY")
+    assert (r.returncode, r.stdout.strip()) == (0, "mode VELOCITY (GUIDED in MAVProxy and QGroundControl)")
     r = ground("mode", "target", "--master", vehicle.device)  # no target yet
     assert r.returncode == 1
     assert r.stderr.strip() == "roboray-ground: error: mode TARGET refused: no target set (failed)"
@@ -48,13 +48,21 @@ def test_arm_mode_disarm(vehicle):
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     assert (out["command"], out["result"], out["north_m"], out["east_m"]) == ("target", "accepted", 2.0, -1.5)
-    r = ground("mode", "TARGET", "--master", vehicle.device)
+    r = ground("mode", "AUTO", "--master", vehicle.device, "--json")   # the name ground stations show
     assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["mode"] == "TARGET" and json.loads(r.stdout)["custom_mode"] == 3
     r = ground("status", "--master", vehicle.device, "--json", "--listen", "0.5")
     status = json.loads(r.stdout)
     assert status["mode"] == "TARGET" and status["armed"] is True and status["system"] == 1
     r = ground("disarm", "--master", vehicle.device + ",57600")
-    assert (r.returncode, r.stdout.strip()) == (0, "disarmed")
+    assert (r.returncode, r.stdout.strip()) == (0, "disarmed in TARGET")   # the mode stays
+    r = ground("status", "--master", vehicle.device, "--json", "--listen", "0.5")
+    status = json.loads(r.stdout)
+    assert status["mode"] == "TARGET" and status["armed"] is False
+    r = ground("mode", "disarmed", "--master", vehicle.device)
+    assert r.returncode == 2 and "DISARMED is no mode" in r.stderr and "use disarm" in r.stderr
+    r = ground("mode", "passive", "--master", vehicle.device)
+    assert r.returncode == 0, r.stderr
 
 
 def test_status_and_watch_show_the_loop_load_and_the_worst_slot(vehicle):
@@ -263,7 +271,8 @@ def test_missing_port_busy_port_and_silent_port():
     assert "no heartbeat on /dev/pts/" in r.stderr and "at 57600 baud within 1 s" in r.stderr
     assert "baud rate (--baudrate)" in r.stderr
     r = ground("mode", "HOVER", "--master", "/dev/ttyNOPE0")
-    assert r.returncode == 2 and "choose from DISARMED, PASSIVE" in r.stderr
+    assert r.returncode == 2 and "choose from PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE" in r.stderr
+    assert "MANUAL, STABILIZE, GUIDED, AUTO, SURFACE" in r.stderr
 
 
 def test_log_record_dump_and_plot(vehicle, tmp_path):

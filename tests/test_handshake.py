@@ -139,22 +139,24 @@ def test_long_statustext_goes_in_chunks(gcs):
 def test_set_mode_message_is_acknowledged_as_ardupilot_does(vehicle, gcs):
     assert command(gcs, pm.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == pm.MAV_RESULT_ACCEPTED
     try:
-        gcs.mav.set_mode_send(SYS, pm.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, M.ATTITUDE)
+        gcs.mav.set_mode_send(SYS, pm.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, M.CUSTOM[M.ATTITUDE])
         a = ack(gcs, pm.MAVLINK_MSG_ID_SET_MODE)   # ArduPilot's: the ACK's command is 11
         assert a is not None and a.result == pm.MAV_RESULT_ACCEPTED
-        assert wait(gcs, "HEARTBEAT", lambda m: m.custom_mode == M.ATTITUDE) is not None
-        gcs.mav.set_mode_send(SYS, 0, M.PASSIVE)   # no CUSTOM_MODE_ENABLED
+        assert wait(gcs, "HEARTBEAT", lambda m: m.custom_mode == M.CUSTOM[M.ATTITUDE]) is not None
+        gcs.mav.set_mode_send(SYS, 0, M.CUSTOM[M.PASSIVE])   # no CUSTOM_MODE_ENABLED
         assert ack(gcs, pm.MAVLINK_MSG_ID_SET_MODE).result == pm.MAV_RESULT_DENIED
         gcs.mav.set_mode_send(SYS, pm.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 200)   # no such mode
         a = ack(gcs, pm.MAVLINK_MSG_ID_SET_MODE)
         assert a.result == pm.MAV_RESULT_FAILED and M.REASONS[a.result_param2] == M.UNKNOWN_MODE
         # arming an armed vehicle is accepted (ArduPilot), and changes nothing
         assert command(gcs, pm.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == pm.MAV_RESULT_ACCEPTED
-        assert wait(gcs, "HEARTBEAT", lambda m: m.custom_mode == M.ATTITUDE) is not None
+        assert wait(gcs, "HEARTBEAT", lambda m: m.custom_mode == M.CUSTOM[M.ATTITUDE]) is not None
         # a param1 neither 0 nor 1
         assert command(gcs, pm.MAV_CMD_COMPONENT_ARM_DISARM, 2).result == pm.MAV_RESULT_UNSUPPORTED
     finally:
         assert command(gcs, pm.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == pm.MAV_RESULT_ACCEPTED
+        gcs.mav.set_mode_send(SYS, pm.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, M.CUSTOM[M.PASSIVE])
+        assert ack(gcs, pm.MAVLINK_MSG_ID_SET_MODE).result == pm.MAV_RESULT_ACCEPTED
     # disarming a disarmed vehicle too
     assert command(gcs, pm.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == pm.MAV_RESULT_ACCEPTED
 

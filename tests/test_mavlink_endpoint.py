@@ -99,7 +99,8 @@ def test_heartbeat_names_a_generic_submarine_and_streams_follow_their_rates():
     for m in msgs:
         count[m.get_type()] = count.get(m.get_type(), 0) + 1
     hb = [m for m in msgs if m.get_type() == "HEARTBEAT"][0]
-    assert (hb.type, hb.autopilot, hb.custom_mode, hb.base_mode) == (pm.MAV_TYPE_SUBMARINE, pm.MAV_AUTOPILOT_GENERIC, 0, 1)
+    assert (hb.type, hb.autopilot, hb.custom_mode, hb.base_mode) == (pm.MAV_TYPE_SUBMARINE, pm.MAV_AUTOPILOT_GENERIC,
+                                                                     M.CUSTOM[M.PASSIVE], 1)
     assert 4 <= count["HEARTBEAT"] <= 5
     assert 15 <= count["ATTITUDE"] <= 17          # SR_ATTITUDE 4 Hz
     assert 7 <= count["LOCAL_POSITION_NED"] <= 9  # SR_POSITION 2 Hz
@@ -285,9 +286,9 @@ def test_commands_are_acknowledged_with_reasons():
     g.mav.command_long_send(1, 1, pm.MAV_CMD_DO_REPOSITION, 0, -1, 0, 0, math.nan, 2.0, -1.0, math.nan, )
     assert acks(exchange(g, v))[0].result == pm.MAV_RESULT_ACCEPTED
     assert list(v.tel.target_ned) == [2.0, -1.0, 0.0] and v.tel.has_target
-    g.mav.command_long_send(1, 1, pm.MAV_CMD_DO_SET_MODE, 0, 1, M.TARGET, 0, 0, 0, 0, 0)
+    g.mav.command_long_send(1, 1, pm.MAV_CMD_DO_SET_MODE, 0, 1, M.CUSTOM[M.TARGET], 0, 0, 0, 0, 0)
     assert acks(exchange(g, v))[0].result == pm.MAV_RESULT_ACCEPTED and v.modes.mode == M.TARGET
-    g.mav.command_long_send(1, 1, pm.MAV_CMD_DO_SET_MODE, 0, 0, M.PASSIVE, 0, 0, 0, 0, 0)
+    g.mav.command_long_send(1, 1, pm.MAV_CMD_DO_SET_MODE, 0, 0, M.CUSTOM[M.PASSIVE], 0, 0, 0, 0, 0)
     assert acks(exchange(g, v))[0].result == pm.MAV_RESULT_DENIED  # no CUSTOM_MODE_ENABLED
     # reboot refused while armed, accepted when disarmed
     g.mav.command_long_send(1, 1, pm.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)

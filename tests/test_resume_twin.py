@@ -39,9 +39,10 @@ def test_a_watchdog_reset_in_the_descent_resumes_the_dive(at):
     said = resumed(r, "Watchdog reset at")
     assert said and said[0][1] == 2                        # MAV_SEVERITY_CRITICAL, seen by the ground
     assert "dive state from scratch: TARGET, waiting for the depth to resume" in r["console"]
-    # disarmed by the reset, then the dive's mode again, without an arming
+    # disarmed in PASSIVE by the reset, then armed in the dive's mode again, without an arming
     modes = [m for t, m in r["modes"] if t > at and m != "OFF"]
-    assert modes == ["DISARMED", "TARGET"], r["modes"]
+    assert modes == ["PASSIVE", "TARGET"], r["modes"]
+    assert [a for t, a in r["arming"] if t > at] == ["disarmed", "armed"], r["arming"]
     assert "estimator" not in [f["name"] for f in r["failsafes"]]
 
 
@@ -61,10 +62,10 @@ def test_a_board_powered_off_armed_at_the_surface_comes_back_disarmed():
     # deeper than RESUME_DEPTH_M, as on deck or on the bench
     r = fly("powercut@14", scenario="bottom-rest", depth=0.4, duration=28.0)
     assert r["power_cuts"] == 1
-    after = [m for t, m in r["modes"] if t > 14.0 and m != "OFF"]   # OFF: between two lives
-    assert after == ["DISARMED"], r["modes"]
+    assert [a for t, a in r["arming"] if t > 14.0] == ["disarmed"], r["arming"]
+    assert r["modes"][-1][1] == "PASSIVE"
     said = [t for t in r["statustext"] if t[2].startswith("Power lost at")]
-    assert len(said) == 1 and said[0][2].endswith("(surface): DISARMED") and said[0][1] == 4
+    assert len(said) == 1 and said[0][2].endswith("(surface): disarmed") and said[0][1] == 4
     assert said[0][0] >= 14.0 + 10.0   # it waited for the vehicle to sink: SURFACE_WAIT_MS
 
 

@@ -38,7 +38,10 @@ def test_a_target_landing_through_the_whole_stack_on_micropython(board, tmp_path
     assert r["console"][0] == r["firmware"] and r["firmware"].startswith("RoboRay firmware 0.")
     assert r["landed"] and r["target"] == [2.0, 0.0]
     assert r["landing_error_m"] < 0.25                # the control issue's tolerance, 2 m from 10 m
-    assert [m for _, m in r["modes"]] == ["DISARMED", "PASSIVE", "TARGET"]
+    # arming is a flag: disarmed in PASSIVE at boot, armed there, then TARGET
+    assert [m for _, m in r["modes"]] == ["PASSIVE", "TARGET"]
+    assert [a for _, a in r["arming"]] == ["disarmed", "armed"]
+    assert r["arming"][1][0] <= r["modes"][1][0]
     assert r["failsafes"] == [] and r["statustext"] == [] and r["task_errors"] == 0
     assert r["overruns"] == 0 and r["resets"] == 0
     assert [a["result"] for a in r["operator"]] == ["accepted"] * 3
@@ -97,7 +100,7 @@ def test_ten_minutes_resting_on_the_bottom_raise_no_failsafe():
     assert r["duration_s"] - r["landed_at_s"] >= 597.0
     assert r["failsafes"] == [] and r["statustext"] == []
     assert r["failsafe_flags_reported"] == 0
-    assert [m for _, m in r["modes"]] == ["DISARMED", "PASSIVE"]
+    assert [m for _, m in r["modes"]] == ["PASSIVE"] and [a for _, a in r["arming"]] == ["disarmed", "armed"]
     assert r["overruns"] == 0 and r["resets"] == 0 and r["task_errors"] == 0
 
 

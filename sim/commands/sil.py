@@ -116,6 +116,19 @@ def _announce(radio) -> None:
     sys.stderr.flush()
 
 
+def _timeline(r: dict) -> str:
+    """Mode changes and armings in time order (arming is a flag, the mode
+    stays): "PASSIVE (disarmed) at 0.02 s, armed at 9.06 s, TARGET at 9.22 s"."""
+    events = sorted([(t, 0, m) for t, m in r["modes"]] + [(t, 1, a) for t, a in r.get("arming", [])])
+    out: list = []
+    for t, kind, what in events:
+        if kind and out and out[-1][0] == t and not out[-1][1]:
+            out[-1] = (t, 0, "%s (%s)" % (out[-1][2], what))   # a mode and its arming at one instant
+        else:
+            out.append((t, kind, what))
+    return ", ".join("%s at %.2f s" % (what, t) for t, _, what in out)
+
+
 def do_sil(args: argparse.Namespace) -> None:
     twin = _twin(args, on_radio=_announce)
     log.info("scenario %s, seed %d, firmware on %s, %s", args.scenario, args.seed, args.interpreter,
@@ -143,7 +156,7 @@ def do_sil(args: argparse.Namespace) -> None:
             lines.append("did not reach the bottom (%g m)" % r["bottom_depth_m"])
         if r.get("landing_error_m") is not None:
             lines.append("landing error %.3f m from the target %s" % (r["landing_error_m"], r["target"]))
-        lines.append("modes: " + ", ".join("%s at %.2f s" % (m, t) for t, m in r["modes"]))
+        lines.append("modes: " + _timeline(r))
         if r["failsafes"]:
             lines.append("failsafes: " + ", ".join("%s at %.2f s" % (f["name"], f["t"]) for f in r["failsafes"]))
         else:

@@ -41,6 +41,8 @@ from typing import Any, BinaryIO, Optional
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
+from roboray.shared import modes  # noqa: E402
+
 #: tlog time of virtual time 0: the virtual clock's epoch (2021-01-01 UTC).
 EPOCH_US = 1609459200 * 1000000
 GCS_SYSID = 255
@@ -49,7 +51,6 @@ VEHICLE_SYSID = 1
 VEHICLE_COMPID = 1
 RETRY_S = 1.0
 TRIES = 5
-MODES = ("DISARMED", "PASSIVE", "ATTITUDE", "VELOCITY", "TARGET", "FAILSAFE")
 #: The signing clock (10 us units since 2015-01-01) the runner's key record
 #: gives the vehicle: the twin's epoch (virtual time 0).
 SIGNING_EPOCH = (EPOCH_US // 1000000 - 1420070400) * 100000
@@ -63,7 +64,7 @@ class Action:
     """One operator step: at ``t`` (s, or as soon as ``after`` succeeded)."""
 
     t: float
-    kind: str                      #: arm, disarm, mode, target, velocity, param, param_read, reboot
+    kind: str                      #: arm, disarm, mode (args: a mode name), target, velocity, param, param_read, reboot
     args: tuple = ()
     after: Optional[str] = None    #: label of an action that must have succeeded first
     label: Optional[str] = None
@@ -253,8 +254,11 @@ class Ground:
         elif k == "disarm":
             m.command_long_send(ts, tc, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0)
         elif k == "mode":
+            number = modes.mode_number(a.args[0])
+            if number < 0:
+                raise ValueError("operator action mode: unknown mode %r" % (a.args[0],))
             m.command_long_send(ts, tc, mavlink.MAV_CMD_DO_SET_MODE, 0,
-                                mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES.index(a.args[0]), 0, 0, 0, 0, 0)
+                                mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, modes.CUSTOM[number], 0, 0, 0, 0, 0)
         elif k == "target":
             north, east, down = a.args
             m.command_long_send(ts, tc, mavlink.MAV_CMD_DO_REPOSITION, 0, -1, 0, 0, 0, north, east, down)

@@ -6,6 +6,9 @@ from typing import Any
 
 import numpy as np
 
+from roboray.shared.modes import MODES
+from roboray.shared.modes import NAMES as MODE_NAMES
+
 
 def plot(twin: Any, report: dict, out_png: str) -> None:
     """Top view (true track, the vehicle's own estimate, target, landing),
@@ -63,13 +66,9 @@ def plot(twin: Any, report: dict, out_png: str) -> None:
     ax.legend(fontsize=8, ncol=2)
 
     ax = axes[1, 1]
-    modes = report.get("modes", [])
-    names = ["OFF", "DISARMED", "PASSIVE", "ATTITUDE", "VELOCITY", "TARGET", "FAILSAFE"]
     end = float(t[-1]) if len(t) else 0.0
-    for i, (t0, name) in enumerate(modes):
-        t1 = modes[i + 1][0] if i + 1 < len(modes) else end
-        y = names.index(name) if name in names else 0
-        ax.plot([t0, t1], [y, y], lw=6, solid_capstyle="butt", color="C%d" % (y % 10))
+    _mode_rows(ax, report.get("modes", []), report.get("arming", []), end)
+    names = [MODE_NAMES[m] for m in MODES]
     for f in report.get("failsafes", []):
         ax.axvline(f["t"], color="C3", lw=0.8)
         ax.text(f["t"], len(names) - 0.6, f["name"], rotation=90, fontsize=7, va="top", color="C3")
@@ -91,3 +90,36 @@ def plot(twin: Any, report: dict, out_png: str) -> None:
     fig.savefig(out_png, dpi=110)
     plt.close(fig)
 
+
+def _mode_rows(ax: Any, modes: list, arming: list, end: float) -> None:
+    """One row a mode (arming is a flag, not a row): a thick bar while armed,
+    a thin one while disarmed, grey where no firmware ran (a reset)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    names = [MODE_NAMES[m] for m in MODES]
+    cuts = sorted({float(t) for t, _ in modes} | {float(t) for t, _ in arming} | {end})
+
+    def at(log: list, t: float) -> Any:
+        now = None
+        for when, what in log:
+            if when <= t:
+                now = what
+        return now
+
+    off = False
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        mode = at(modes, a)
+        if mode == "OFF":
+            ax.axvspan(a, b, color="0.85", lw=0)
+            off = True
+        elif mode in names:
+            y = names.index(mode)
+            armed = at(arming, a) == "armed"
+            ax.plot([a, b], [y, y], lw=6 if armed else 2, alpha=1.0 if armed else 0.6, solid_capstyle="butt",
+                    color="C%d" % y)
+    handles = [Line2D([], [], lw=6, color="0.3", label="armed"), Line2D([], [], lw=2, color="0.3", alpha=0.6,
+                                                                         label="disarmed")]
+    if off:
+        handles.append(Patch(color="0.85", label="no firmware (reset)"))
+    ax.legend(handles=handles, fontsize=7, loc="upper left")

@@ -64,7 +64,8 @@ import numpy as np
 
 from roboray.sim.twin import faults as faults_mod
 from roboray.sim.twin import scenarios, timing
-from roboray.sim.twin.ground import MODES, Action, Framer, Ground
+from roboray.shared.modes import NAMES as MODE_NAMES
+from roboray.sim.twin.ground import Action, Framer, Ground
 from roboray.tools.micropython.interpreter import wait_readable
 
 log = logging.getLogger("roboray.sim.twin")
@@ -478,8 +479,10 @@ class Twin:
         self._pending: Optional[list] = None
         self._stop = False
         self.mode = -1
+        self.armed: Optional[bool] = None
         self.active = 0
         self.mode_log: list = []
+        self.arming_log: list = []
         self.failsafe_log: list = []
         self.cleared_log: list = []
         self.faults_applied: list = []
@@ -599,10 +602,16 @@ class Twin:
                 w[k] = (pulses[k] / 1000.0 - zero) / span * (math.pi / 2)
         return w
 
-    def _state(self, t: float, mode: int, active: int) -> None:
+    def _state(self, t: float, code: int, active: int) -> None:
+        # code: the mode (bits 0-2) and armed (bit 3), -1 while no firmware runs
+        mode = code & 7 if code >= 0 else -1
         if mode != self.mode:
-            self.mode_log.append((round(t, 3), MODES[mode] if 0 <= mode < len(MODES) else "OFF"))
+            self.mode_log.append((round(t, 3), MODE_NAMES[mode] if 0 < mode < len(MODE_NAMES) else "OFF"))
             self.mode = mode
+        armed = bool(code & 8) if code >= 0 else None
+        if armed is not None and armed != self.armed:
+            self.arming_log.append((round(t, 3), "armed" if armed else "disarmed"))
+        self.armed = armed
         if active != self.active:
             for i, name in enumerate(FAILSAFES):
                 bit = 1 << i
@@ -733,6 +742,7 @@ class Twin:
             "failsafes": self.failsafe_log,
             "failsafes_cleared": self.cleared_log,
             "modes": self.mode_log,
+            "arming": self.arming_log,
             "faults": self.faults_applied,
             "statustext": [[round(t, 3), sev, text] for t, sev, text in g.seen.texts],
             "failsafe_flags_reported": _union(e[1] for e in g.seen.sys_status),

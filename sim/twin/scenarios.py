@@ -2,10 +2,12 @@
 
 Every scenario starts the same way: the board boots at time 0 with the
 vehicle held still just under the surface, the estimator aligns (about 8 s
-of fast gains, ``shared/estimator``), the operator arms at ``ARM_S``
-(repeating while the vehicle refuses: it may still be aligning), sets up the
-dive, and the vehicle is released half a second after the last set-up
-command is accepted. Then:
+of fast gains, ``shared/estimator``), the operator arms at ``ARM_S`` in
+PASSIVE, the mode the board boots in (repeating while the vehicle refuses:
+it may still be aligning), sets up the dive (target, velocity, then the
+dive's mode: the mode checks of an armed vehicle see the target), and the
+vehicle is released half a second after the last set-up command is
+accepted. Then:
 
 ==================  ==========================================================
 name                what it shows

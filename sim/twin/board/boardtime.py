@@ -23,13 +23,14 @@ Two sources of that work, one interface:
 - ``"model"``: any other interpreter. A deterministic model calibrated on
   the emulated board (``sim/twin/board_time_model.json``, written by
   ``roboray-sim bench board --write-model``) charges each task call its
-  mean cost on the chip in the vehicle's current mode, each collection
+  mean cost on the chip in the vehicle's current state (``Modes.state``:
+  its mode armed, DISARMED disarmed), each collection
   its cost at the firmware's live heap, and the same flash stalls.
 
 ``--cpu-mhz`` scales the compute part (not bus time, not flash stalls).
 
-Every task call, collection and slot is recorded, ``(kind << 24) | (mode
-<< 21) | us`` (the vehicle's mode then; us capped at 2**21 - 1),
+Every task call, collection and slot is recorded, ``(kind << 24) | (state
+<< 21) | us`` (the vehicle's ``Modes.state`` then; us capped at 2**21 - 1),
 into a buffer the lockstep sends to the host with its frame request
 (``take_records``): kinds 0..15 are the scheduler's tasks in the order
 added, ``GC`` a collection, ``SLOT`` a slot's work from its start to the
@@ -154,7 +155,7 @@ class BoardTime:
             self.lost += 1
             return
         m = self._modes
-        mode = m.mode if m is not None else 0
+        mode = m.state if m is not None else 0
         self.records[n] = (kind << 24) | (mode << 21) | (us if us < _US_MAX else _US_MAX)
         self.n = n + 1
 
@@ -168,7 +169,7 @@ class BoardTime:
     def instrument(self, sched, modes):
         """Time every task and the collection of ``sched`` (and charge them,
         for the model). Called as the loop starts; ``modes``: the vehicle's
-        ``Modes`` (the model's costs depend on the mode)."""
+        ``Modes`` (the model's costs depend on its ``state``)."""
         self._modes = modes
         self.names = list(sched.names)
         fns = sched._fns
@@ -213,7 +214,7 @@ class BoardTime:
             try:
                 fn()
             finally:
-                c = costs[bt._modes.mode]
+                c = costs[bt._modes.state]
                 bt.busy = (bt.busy + c) & _MASK
                 # the call's time as the board's: its cost and its flash stalls
                 rec(i, c + bt.flash_us - f0)

@@ -12,7 +12,8 @@ time, 20 ms: one servo frame) it makes one ``hostlink.request``:
 
 - request: ``"<p1> <p2> <p3> <p4> <mode> <failsafes> <hex> <times>"``: the
   four servo pulses (ns, as the PWM outputs show them now), the firmware's
-  mode and active failsafe bits (for the twin's record; -1 when no
+  mode (bits 0-2, ``shared/modes.py``'s number) and armed flag (bit 3)
+  and its active failsafe bits (for the twin's record; -1 when no
   application runs), the bytes the radio UART sent since the last frame,
   and the hex of the board-time records since the last frame
   (``boardtime.py``: every task call, collection and slot, in us; empty
@@ -174,7 +175,7 @@ class Lockstep:
         mode = -1
         active = 0
         if v is not None and v.modes is not None:
-            mode = v.modes.mode
+            mode = v.modes.mode | (8 if v.modes.armed else 0)
             active = v.failsafes.active
         sent = self.uart.take()
         times = self.bt.take_records() if self.bt is not None else b""

@@ -1,0 +1,194 @@
+"""Modes and arming as ground stations know them (issue 17), pymavlink against
+the board endpoint on MicroPython behind a pseudo-terminal (``roboray-ground
+demo-vehicle``'s ``PtyVehicle``): the names MAVProxy shows (pymavlink's
+ArduSub table, as MAVProxy reads it), ``set_mode`` by name for every mode,
+arming as a flag that keeps the mode, and the standard modes protocol
+(AVAILABLE_MODES, CURRENT_MODE) decoded by pymavlink's development dialect."""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from typing import Callable
+
+import pytest
+
+os.environ["MAVLINK20"] = "1"
+from pymavlink import mavutil  # noqa: E402
+from pymavlink.dialects.v20 import development as dev  # noqa: E402
+
+from roboray.ground.vehicle import PtyVehicle  # noqa: E402
+from roboray.shared import modes as M  # noqa: E402
+
+SYS, COMP = 1, 1
+
+
+@pytest.fixture(scope="module")
+def vehicle():
+    with PtyVehicle() as v:
+        yield v
+
+
+def connect(vehicle, dialect: str):
+    c = mavutil.mavlink_connection(vehicle.device, baud=57600, source_system=255, source_component=190,
+                                   dialect=dialect, autoreconnect=False)
+    c.mav.robust_parsing = True
+    c.mav.heartbeat_send(dev.MAV_TYPE_GCS, dev.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+    assert c.wait_heartbeat(timeout=10) is not None
+    return c
+
+
+@pytest.fixture()
+def mavproxy_view(vehicle):
+    """pymavlink with MAVProxy's dialect (ardupilotmega), which lacks the
+    standard modes messages: what MAVProxy itself decodes and names."""
+    c = connect(vehicle, "ardupilotmega")
+    yield c
+    back_to_boot(c)
+    c.close()
+
+
+@pytest.fixture()
+def gcs(vehicle):
+    """pymavlink with the development dialect: AVAILABLE_MODES and CURRENT_MODE."""
+    c = connect(vehicle, "development")
+    yield c
+    back_to_boot(c)
+    c.close()
+
+
+def back_to_boot(c) -> None:
+    """Disarmed in PASSIVE, as the next test expects the vehicle."""
+    command(c, dev.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+    command(c, dev.MAV_CMD_DO_SET_MODE, dev.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, M.CUSTOM[M.PASSIVE])
+
+
+def wait(c, kind: str, cond: Callable = lambda m: True, timeout: float = 5.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        m = c.recv_match(type=kind, blocking=True, timeout=end - time.monotonic())
+        if m is not None and cond(m):
+            return m
+    return None
+
+
+def command(c, cmd: int, *params: float):
+    p = list(params) + [0.0] * (7 - len(params))
+    c.mav.command_long_send(SYS, COMP, cmd, 0, *p)
+    return wait(c, "COMMAND_ACK", lambda m: m.command == cmd)
+
+
+def heartbeat(c, cond: Callable):
+    """The next heartbeat after now that satisfies ``cond``."""
+    return wait(c, "HEARTBEAT", lambda m: m.type == dev.MAV_TYPE_SUBMARINE and cond(m))
+
+
+def set_target(c) -> None:
+    a = command(c, dev.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, 2.0, 0.0, math.nan)
+    assert a is not None and a.result == dev.MAV_RESULT_ACCEPTED
+
+
+def test_every_mode_has_a_name_mavproxy_shows_and_is_reached_by_it(mavproxy_view):
+    c = mavproxy_view
+    mapping = c.mode_mapping()   # what MAVProxy's mode command looks names up in
+    assert {M.ARDUSUB_NAMES[m] for m in M.MODES} <= set(mapping)
+    assert c.flightmode == "MANUAL"    # PASSIVE, the boot's mode
+    set_target(c)
+    assert command(c, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == dev.MAV_RESULT_ACCEPTED
+    # every mode from every other, by the name MAVProxy shows, armed
+    order = [M.ATTITUDE, M.VELOCITY, M.TARGET, M.FAILSAFE, M.PASSIVE, M.TARGET, M.ATTITUDE, M.FAILSAFE,
+             M.VELOCITY, M.PASSIVE]
+    for m in order:
+        name = M.ARDUSUB_NAMES[m]
+        c.set_mode(name)     # pymavlink's set_mode_apm: DO_SET_MODE with the name's number, as MAVProxy's "mode"
+        a = wait(c, "COMMAND_ACK", lambda x: x.command == dev.MAV_CMD_DO_SET_MODE)
+        assert a is not None and a.result == dev.MAV_RESULT_ACCEPTED, (M.NAMES[m], a)
+        hb = heartbeat(c, lambda h: h.custom_mode == M.CUSTOM[m])
+        assert hb is not None and mavutil.mode_string_v10(hb) == name and c.flightmode == name
+        assert hb.base_mode & dev.MAV_MODE_FLAG_SAFETY_ARMED
+    # disarmed, each mode too (the checks come at arming)
+    assert command(c, dev.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == dev.MAV_RESULT_ACCEPTED
+    for m in M.MODES:
+        c.set_mode(M.ARDUSUB_NAMES[m])
+        assert heartbeat(c, lambda h: h.custom_mode == M.CUSTOM[m] and not h.base_mode & 128) is not None
+
+
+def test_arming_is_a_flag_and_the_mode_stays(mavproxy_view):
+    c = mavproxy_view
+    set_target(c)
+    c.set_mode("AUTO")
+    assert heartbeat(c, lambda h: h.custom_mode == M.CUSTOM[M.TARGET]) is not None
+    c.arducopter_arm()       # MAVProxy's "arm throttle"
+    c.motors_armed_wait()
+    hb = heartbeat(c, lambda h: h.base_mode & dev.MAV_MODE_FLAG_SAFETY_ARMED)
+    assert c.flightmode == "AUTO" and hb.system_status == dev.MAV_STATE_ACTIVE
+    c.arducopter_disarm()
+    c.motors_disarmed_wait()
+    hb = heartbeat(c, lambda h: not h.base_mode & dev.MAV_MODE_FLAG_SAFETY_ARMED)
+    assert mavutil.mode_string_v10(hb) == "AUTO" and hb.system_status == dev.MAV_STATE_STANDBY
+    # an armed vehicle armed again: ACCEPTED (ArduPilot's answer), nothing changes
+    assert command(c, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == dev.MAV_RESULT_ACCEPTED
+    assert command(c, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == dev.MAV_RESULT_ACCEPTED
+    assert heartbeat(c, lambda h: h.base_mode & 128 and h.custom_mode == M.CUSTOM[M.TARGET]) is not None
+
+
+def test_failsafe_chosen_by_the_operator_is_left_for_any_mode(mavproxy_view):
+    c = mavproxy_view
+    set_target(c)
+    assert command(c, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == dev.MAV_RESULT_ACCEPTED
+    c.set_mode("SURFACE")
+    assert heartbeat(c, lambda h: h.custom_mode == M.CUSTOM[M.FAILSAFE]) is not None
+    hb = heartbeat(c, lambda h: True)
+    assert hb.system_status == dev.MAV_STATE_CRITICAL
+    c.set_mode("AUTO")
+    a = wait(c, "COMMAND_ACK", lambda x: x.command == dev.MAV_CMD_DO_SET_MODE)
+    assert a.result == dev.MAV_RESULT_ACCEPTED
+    assert heartbeat(c, lambda h: h.custom_mode == M.CUSTOM[M.TARGET]) is not None
+
+
+def test_available_modes_lists_every_mode_with_its_name(gcs):
+    a = command(gcs, dev.MAV_CMD_REQUEST_MESSAGE, dev.MAVLINK_MSG_ID_AVAILABLE_MODES, 0)
+    assert a is not None and a.result == dev.MAV_RESULT_ACCEPTED
+    got = {}
+    while len(got) < len(M.MODES):
+        m = wait(gcs, "AVAILABLE_MODES")
+        assert m is not None, got
+        got[m.mode_index] = m
+    assert sorted(got) == [1, 2, 3, 4, 5]
+    for i, m in got.items():
+        mode = M.MODES[i - 1]
+        assert m.number_modes == 5 and m.mode_name == M.NAMES[mode] and m.custom_mode == M.CUSTOM[mode]
+        assert m.standard_mode == (dev.MAV_STANDARD_MODE_MISSION if mode == M.TARGET
+                                   else dev.MAV_STANDARD_MODE_NON_STANDARD)
+        assert m.properties == 0
+    # one by its index; an index past the last is refused
+    assert command(gcs, dev.MAV_CMD_REQUEST_MESSAGE, dev.MAVLINK_MSG_ID_AVAILABLE_MODES, 4).result == 0
+    m = wait(gcs, "AVAILABLE_MODES")
+    assert (m.mode_index, m.mode_name) == (4, "TARGET")
+    a = command(gcs, dev.MAV_CMD_REQUEST_MESSAGE, dev.MAVLINK_MSG_ID_AVAILABLE_MODES, 6)
+    assert a.result == dev.MAV_RESULT_DENIED
+
+
+def test_current_mode_streams_goes_on_a_change_and_keeps_what_the_operator_chose(gcs):
+    first = wait(gcs, "CURRENT_MODE", timeout=3.0)
+    assert first is not None and first.custom_mode == M.CUSTOM[M.PASSIVE]
+    t0 = time.monotonic()
+    n = 0
+    while time.monotonic() - t0 < 4.1:
+        if wait(gcs, "CURRENT_MODE", timeout=0.2) is not None:
+            n += 1
+    assert 1 <= n <= 3     # 0.5 Hz (with the heartbeat, every other one)
+    set_target(gcs)
+    assert command(gcs, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == dev.MAV_RESULT_ACCEPTED
+    # the standard mode MISSION is TARGET; CURRENT_MODE says so at once
+    assert command(gcs, dev.MAV_CMD_DO_SET_STANDARD_MODE, dev.MAV_STANDARD_MODE_MISSION).result == 0
+    sent = time.monotonic()
+    m = wait(gcs, "CURRENT_MODE", lambda x: x.custom_mode == M.CUSTOM[M.TARGET], timeout=2.0)
+    assert m is not None and time.monotonic() - sent < 0.9
+    assert m.standard_mode == dev.MAV_STANDARD_MODE_MISSION and m.intended_custom_mode == M.CUSTOM[M.TARGET]
+    a = command(gcs, dev.MAV_CMD_DO_SET_STANDARD_MODE, dev.MAV_STANDARD_MODE_POSITION_HOLD)
+    assert a.result == dev.MAV_RESULT_FAILED and M.REASONS[a.result_param2] == M.UNKNOWN_MODE
+    # asked for
+    assert command(gcs, dev.MAV_CMD_REQUEST_MESSAGE, dev.MAVLINK_MSG_ID_CURRENT_MODE).result == 0
+    assert wait(gcs, "CURRENT_MODE", timeout=1.0).custom_mode == M.CUSTOM[M.TARGET]
