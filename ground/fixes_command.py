@@ -278,7 +278,7 @@ def _report(args: argparse.Namespace, relay: Any, source: Any, link: Any, starte
         result["stopped"] = stopped
 
     def text(r: dict) -> str:
-        lines = ["relayed %d of %d fixes from %s to %s in %.1f s" % (
+        lines = ["relayed %d fixes of the %d lines received from %s to %s in %.1f s" % (
             r["out"], r["in"], r["source"], r["vehicle"], r["duration_s"])]
         for what in ("rejected", "dropped", "ignored"):
             counts = r[what]
