@@ -101,7 +101,7 @@ def gga(s: Sentence) -> Gga:
         raise NmeaError("malformed", "a %s sentence, not GGA" % s.kind)
     if len(f) < 9:
         raise NmeaError("malformed", "GGA with %d fields, at least 9 expected" % len(f))
-    quality = _int(f[5], "quality", 0)
+    quality = _int(f[5], "quality", 0) or 0
     if quality == 0 or not f[1] or not f[3]:
         raise NmeaError("no_fix", "GGA without a fix (quality %d%s)" % (
             quality, "" if f[1] and f[3] else ", no position"))
