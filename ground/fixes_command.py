@@ -185,13 +185,7 @@ def relay_fixes(args: argparse.Namespace, connect: Callable[[argparse.Namespace]
         source.close()
         raise
     clock = VehicleClock()
-    heard = [time.monotonic()]
-
-    def on_message(m: Any) -> None:
-        heard[0] = time.monotonic()
-        clock.note(m, heard[0])
-
-    link.on_message = on_message
+    link.on_message = clock.note
     relay = None
     started = time.monotonic()
     try:
@@ -229,8 +223,6 @@ def relay_fixes(args: argparse.Namespace, connect: Callable[[argparse.Namespace]
         screen.clear()
         source.close()
         link.close()
-    if relay is None:     # stopped before the relay began
-        return
     relay.finish()
     _report(args, relay, source, link, started)
 
