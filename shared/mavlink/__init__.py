@@ -9,5 +9,7 @@
   that validates, resynchronises and counts.
 - ``signing``: MAVLink 2 message signing with replay protection.
 - ``endpoint``: the vehicle side of the link (parameters, commands,
-  telemetry streams, heartbeat) over an injected transport.
+  telemetry streams, heartbeat) over an injected transport;
+- ``mission``: the mission protocol, the landing target as a mission
+  (home and one NAV_LAND), for the endpoint.
 """
