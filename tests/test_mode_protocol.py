@@ -192,3 +192,78 @@ def test_current_mode_streams_goes_on_a_change_and_keeps_what_the_operator_chose
     # asked for
     assert command(gcs, dev.MAV_CMD_REQUEST_MESSAGE, dev.MAVLINK_MSG_ID_CURRENT_MODE).result == 0
     assert wait(gcs, "CURRENT_MODE", timeout=1.0).custom_mode == M.CUSTOM[M.TARGET]
+
+
+def test_the_mode_frames_are_framed_without_allocating_on_micropython(micropython):
+    """The endpoint on the real interpreter: AVAILABLE_MODES (all five asked
+    for) and CURRENT_MODE go out one an update, each allocating only the
+    16-byte view every frame written costs; ids above 255 parse as the
+    others do."""
+    from test_mavlink_endpoint import _MP_SETUP
+
+    mav = dev.MAVLink(None, 255, 190)
+    ask = dev.MAVLink_command_long_message(1, 1, dev.MAV_CMD_REQUEST_MESSAGE, 0,
+                                           dev.MAVLINK_MSG_ID_AVAILABLE_MODES, 0, 0, 0, 0, 0, 0).pack(mav)
+    micropython.exec(_MP_SETUP)
+    micropython.exec("__ep.update(0)\nfor __n in ('ATTITUDE', 'POSITION', 'SENSORS', 'SERVO', 'BATTERY', 'STATUS'):\n"
+                     "    __ep.params.set_by_name('SR_' + __n, 0.0)\n__ep._pending = 0\n__ep._mode_sent = 1\n"
+                     "__ep._hb_due = 10 ** 8\n__ep._wake = 10 ** 8\n"
+                     "def __one():\n    n = __pipe.out\n    __t[0] += 1\n    __ep.update(__t[0])\n"
+                     "    __sent.append(__pipe.out - n)\n__sent = []\n")
+    micropython.exec("__f = %r\n__feed(__f)" % ask)
+    micropython.exec("__sent = []")
+    for _ in range(2):   # (alloc_bytes runs the call twice: a warm-up, then the measure)
+        assert micropython.alloc_bytes("__one()") == 16, "one update: one frame"
+    micropython.exec("for __i in range(6):\n    __one()")
+    sizes = micropython.eval("__sent")
+    # header and checksum, 11 bytes of numbers, the name (its zeros cut)
+    assert sizes[:5] == [12 + 11 + len(M.NAMES[m]) for m in M.MODES]
+    assert sizes[5:] == [0] * 5 and micropython.eval("__ep._avail_next") == 0
+    # a mode change (TARGET and VELOCITY in turn): CURRENT_MODE at the next update
+    micropython.exec("__ep.modes.request(4)\n__one()\n__sent = []")
+    assert micropython.alloc_bytes("__ep.modes.request(7 - __ep.modes.mode)\n__one()") == 16
+    assert micropython.eval("__sent") == [12 + 5, 12 + 9]   # VELOCITY: 4, 4, 0, its zeros cut
+    # parsing the ids above 255 as any other
+    setup = ("from roboray.shared.mavlink.parser import Parser\n__p = Parser()\n"
+             "def __parse(f):\n    i = 0\n    while i < len(f):\n        i = __p.feed(f, i, len(f))\n"
+             "        if __p.ready:\n            return __p.msgid\n    return -1\n")
+    micropython.exec(setup)
+    low = dev.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(mav)
+    for frame, msgid in ((dev.MAVLink_current_mode_message(0, 3, 3).pack(mav), 436),
+                         (dev.MAVLink_available_modes_message(5, 4, 6, 3, 0, b"TARGET").pack(mav), 435)):
+        micropython.exec("__fr = memoryview(%r)\n__lo = memoryview(%r)" % (frame, low))
+        assert micropython.eval("__parse(__fr)") == msgid
+        assert micropython.alloc_bytes("__parse(__fr)") == micropython.alloc_bytes("__parse(__lo)")
+
+
+def test_mavproxy_names_every_mode_reaches_it_by_name_and_arms_keeping_it(vehicle, tmp_path):
+    """MAVProxy itself (from PyPI, headless): ``mode NAME`` with the names it
+    shows reaches every mode, ``arm throttle`` and ``disarm`` keep the mode."""
+    from test_mission_vehicle import MAVProxy
+
+    mp = MAVProxy(vehicle.device, tmp_path)
+    try:
+        assert mp.expect(lambda s: "online system 1" in s), mp.seen
+        assert mp.expect(lambda s: s.endswith("Mode MANUAL")), mp.seen      # PASSIVE, the boot's mode
+        mp.send("long DO_REPOSITION -1 0 0 nan 2 0 nan")                    # the target TARGET needs
+        assert mp.expect(lambda s: "DO_REPOSITION: ACCEPTED" in s), mp.seen
+        mp.send("arm throttle")
+        assert mp.expect(lambda s: "COMPONENT_ARM_DISARM: ACCEPTED" in s), mp.seen
+        assert mp.expect(lambda s: s.endswith("ARMED")), mp.seen
+        for name in ("STABILIZE", "GUIDED", "AUTO", "SURFACE", "MANUAL", "SURFACE", "AUTO"):
+            mp.send("mode %s" % name.lower())
+            # (MAVProxy's announcement, after its prompt or after another text on the line)
+            assert mp.expect(lambda s: s.endswith("Mode %s" % name)), (name, mp.seen[-6:])
+        mp.send("disarm")
+        assert mp.expect(lambda s: s.endswith("DISARMED")), mp.seen
+        mp.send("status HEARTBEAT")
+        hb = mp.expect(lambda s: "HEARTBEAT {" in s)
+        # AUTO (custom 3) kept, disarmed: custom mode, stabilise and guided flags, not SAFETY_ARMED
+        assert hb is not None and "custom_mode : 3," in hb and "base_mode : 25," in hb, hb
+        mp.send("mode TARGET")       # RoboRay's own names are roboray-ground's; MAVProxy takes what it shows
+        assert mp.expect(lambda s: "Unknown mode TARGET" in s), mp.seen
+        mp.send("mode manual")
+        assert mp.expect(lambda s: s.endswith("Mode MANUAL")), mp.seen[-6:]
+        assert not [s for s in mp.seen if "Traceback" in s]
+    finally:
+        mp.close()
