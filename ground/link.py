@@ -1,9 +1,25 @@
 """The ground station's MAVLink link to the vehicle, on pymavlink.
 
-Connection strings are pymavlink's (as MAVProxy's ``--master``): a serial
-path (``/dev/ttyUSB0``, or ``/dev/ttyUSB0,57600``), ``udpin:HOST:PORT``,
-``udpout:HOST:PORT``, ``tcp:HOST:PORT``. Every failure a user can cause
-becomes a ``LinkError`` (a ``CliError``) with one line saying what to check.
+Connection strings are MAVProxy's ``--master`` forms (``parse_master``
+turns them into pymavlink's): a serial path (``/dev/ttyUSB0``, or
+``/dev/ttyUSB0,57600``); ``udp:PORT``, ``udpin:PORT`` or
+``udpin:HOST:PORT`` (listen, on 0.0.0.0 when no host is given);
+``udpout:HOST:PORT``; ``tcp:HOST:PORT`` (``tcpout:`` alike; a bare port is
+this machine's, where ArduPilot's SITL and the twin's ``--radio tcp:PORT``
+listen); ``tcpin:PORT`` or ``tcpin:HOST:PORT`` (wait for the vehicle to
+connect). Every failure a user can cause becomes a ``LinkError`` (a
+``CliError``, exit 1) with one line saying what to check; a malformed
+string is a ``UsageError`` (exit 2).
+
+The link closing under a command is ``LinkClosed`` (exit 3, ``EXIT_CLOSED``):
+a serial port that went away (a USB radio unplugged, the twin's
+pseudo-terminal closed at the end of its run) or a TCP connection the
+vehicle's end closed. pymavlink would print "Device ... is dead" or "EOF on
+TCP socket" on stdout and carry on reading nothing; ``Link`` takes its
+writes and its TCP end-of-file hooks itself, so nothing of pymavlink's
+reaches the user's terminal. A listening link (``udpin``, ``tcpin``)
+never closes: a vehicle that goes silent is a lost link, shown as such
+(``watch``), and may come back.
 
 Signing: ``--key PASSPHRASE`` derives the 32-byte key as MAVProxy's
 ``signing setup`` does (SHA-256 of the passphrase); we sign what we send and
@@ -32,15 +48,16 @@ from __future__ import annotations
 import contextlib
 import errno
 import hashlib
+import io
 import logging
 import math
 import os
-import sys
+import socket
 import time
 from typing import Any, Callable, Optional
 
 from roboray.shared import modes as vehicle_modes
-from roboray.tools.cli import CliError
+from roboray.tools.cli import CliError, UsageError
 
 log = logging.getLogger("roboray.ground")
 
@@ -61,8 +78,59 @@ RESULTS = {
 }
 
 
+#: The exit status of a command whose link closed under it (``LinkClosed``).
+EXIT_CLOSED = 3
+
+
 class LinkError(CliError):
     """A link failure the user can fix; one line, exit status 1."""
+
+
+class LinkClosed(CliError):
+    """The vehicle's end of the link went away while a command used it: a
+    serial port gone, a TCP connection closed. Exit status ``EXIT_CLOSED``.
+    Not a ``LinkError``: a command that retries or waits over link errors
+    (``watch`` shows a silent link as lost) must not wait on a port that
+    is gone."""
+
+    exit_code = EXIT_CLOSED
+
+
+#: MAVProxy's network forms: the prefix, pymavlink's prefix, whether it
+#: listens (a missing host is then 0.0.0.0, else this machine).
+_NETWORK = {"udp": ("udpin", True), "udpin": ("udpin", True), "udpout": ("udpout", False),
+            "tcp": ("tcp", False), "tcpout": ("tcp", False), "tcpin": ("tcpin", True)}
+
+
+def parse_master(text: str) -> str:
+    """A ``--master`` string as pymavlink opens it (see the module docstring);
+    ``UsageError`` naming what is wrong. Serial paths pass unchanged."""
+    text = text.strip()
+    kind, sep, rest = text.partition(":")
+    if not sep or kind.lower() not in _NETWORK:
+        if not text:
+            raise UsageError("--master: empty: a serial port, udp:PORT, tcp:HOST:PORT, ... or auto")
+        return text
+    prefix, listens = _NETWORK[kind.lower()]
+    parts = rest.split(":")
+    forms = "%s:PORT or %s:HOST:PORT" % (kind, kind)
+    if len(parts) == 1:
+        host, port_text = ("0.0.0.0" if listens else "127.0.0.1"), parts[0]
+    elif len(parts) == 2:
+        host, port_text = parts
+    else:
+        raise UsageError("--master %s: expected %s" % (text, forms))
+    if not host:
+        raise UsageError("--master %s: no host before the port (expected %s)" % (text, forms))
+    try:
+        port = int(port_text)
+    except ValueError:
+        port = -1
+    if not 0 < port < 65536:
+        raise UsageError("--master %s: %r is not a port (1 to 65535; expected %s)" % (text, port_text, forms))
+    if prefix == "udpout" and len(parts) == 1:
+        raise UsageError("--master %s: udpout sends to a host: expected udpout:HOST:PORT" % text)
+    return "%s:%s:%d" % (prefix, host, port)
 
 
 def key_from_passphrase(passphrase: str) -> bytes:
@@ -102,6 +170,20 @@ def _is_serial(master: str) -> bool:
     return ":" not in master.split(",")[0] and not master.endswith(".tlog")
 
 
+def _connect_error(master: str, exc: BaseException, timeout: float) -> LinkError:
+    """One line for a TCP connection that could not be made."""
+    host = master.split(":")[1]
+    if isinstance(exc, socket.gaierror):
+        return LinkError("cannot connect to %s: no such host %s" % (master, host))
+    if isinstance(exc, ConnectionRefusedError) or getattr(exc, "errno", None) == errno.ECONNREFUSED:
+        return LinkError("cannot connect to %s: connection refused: nothing listens there (is the vehicle, "
+                         "its bridge or the twin's --radio tcp:PORT running?)" % master)
+    if isinstance(exc, (socket.timeout, TimeoutError)):
+        return LinkError("cannot connect to %s: no answer within %g s: check the address and the network "
+                         "(--timeout)" % (master, timeout))
+    return LinkError("cannot connect to %s: %s" % (master, getattr(exc, "strerror", None) or exc))
+
+
 def _open_error(master: str, exc: BaseException) -> LinkError:
     text = str(exc)
     code = getattr(exc, "errno", None)
@@ -133,7 +215,7 @@ class Link:
     """
 
     def __init__(self, master: str, baud: int = DEFAULT_BAUD, source_system: int = 255,
-                 key: Optional[bytes] = None) -> None:
+                 key: Optional[bytes] = None, connect_timeout: float = 5.0) -> None:
         os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2, signing
         from pymavlink import mavutil
 
@@ -141,6 +223,7 @@ class Link:
         if not log.isEnabledFor(logging.DEBUG):
             # pymavlink tells every signed stream it meets at INFO ("new stream"): not for the user
             logging.getLogger("pymavlink").setLevel(logging.WARNING)
+        master = parse_master(master)
         self.master = master
         self.baud = baud
         if _is_serial(master) and "," in master:
@@ -150,14 +233,28 @@ class Link:
                 raise LinkError("bad baud rate in %r: expected PATH,BAUD" % master)
         if _is_serial(master) and not os.path.exists(master.split(",")[0]):
             raise _open_error(master, FileNotFoundError(errno.ENOENT, "No such file"))
+        said = io.StringIO()
+        tcp = master.startswith("tcp:")
+        old_timeout = socket.getdefaulttimeout()
         try:
-            # pymavlink prints its connection retries; stdout is for results
-            with contextlib.redirect_stdout(sys.stderr):
+            # One connection attempt (pymavlink retries a refused TCP
+            # connection six times a second apart, printing each), bounded
+            # by connect_timeout; what pymavlink prints is logged, not shown.
+            if tcp:
+                socket.setdefaulttimeout(connect_timeout)
+            with contextlib.redirect_stdout(said):
                 self.conn: Any = mavutil.mavlink_connection(
                     master, baud=self.baud, source_system=source_system,
-                    source_component=GCS_COMPONENT, autoreconnect=False)
+                    source_component=GCS_COMPONENT, autoreconnect=False, retries=0)
         except Exception as exc:  # pyserial, socket and pymavlink errors
+            if tcp and isinstance(exc, OSError):
+                raise _connect_error(master, exc, connect_timeout) from exc
             raise _open_error(master, exc) from exc
+        finally:
+            socket.setdefaulttimeout(old_timeout)
+            if said.getvalue():
+                log.debug("pymavlink: %s", said.getvalue().strip())
+        self._guard()
         self.mav = self.conn.mav
         self.mav.robust_parsing = True
         self.key: Optional[bytes] = None
@@ -168,6 +265,73 @@ class Link:
         self.vehicle_heartbeat: Any = None
         self.on_message: Optional[Callable[[Any], None]] = None
         self._last_gcs_hb = 0.0
+
+    # ------------------------------------------------------ closed links
+    def _closed(self, why: str, exc: Optional[BaseException] = None) -> LinkClosed:
+        if exc is not None:
+            log.debug("%s: %s", self.master, exc)
+        where = self.master.split(",")[0]
+        return LinkClosed("link closed: %s (%s)" % (why, where))
+
+    def _guard(self) -> None:
+        """Take over what pymavlink does when the vehicle's end goes away
+        (see the module docstring): a failed write or read of a serial port,
+        a TCP end-of-file or reset, become ``LinkClosed``."""
+        from pymavlink import mavutil
+
+        conn = self.conn
+        if isinstance(conn, mavutil.mavserial):
+            port = conn.port
+
+            def write(buf: Any) -> int:
+                try:
+                    return port.write(bytes(buf))
+                except Exception as exc:  # noqa: BLE001 - pyserial's SerialException, OSError
+                    raise self._closed("the vehicle's port went away", exc) from exc
+
+            conn.write = write
+            serial_recv = conn.recv
+
+            def recv(n: Optional[int] = None) -> Any:
+                try:
+                    return serial_recv(n)
+                except Exception as exc:  # noqa: BLE001 - EIO: the other end of the line is gone
+                    raise self._closed("the vehicle's port went away", exc) from exc
+
+            conn.recv = recv
+        elif isinstance(conn, mavutil.mavtcp):
+            def gone() -> None:
+                raise self._closed("the vehicle closed the TCP connection")
+
+            conn.handle_eof = gone
+            conn.handle_disconnect = gone
+        elif isinstance(conn, mavutil.mavtcpin):
+            conn.recv = self._tcpin_recv
+
+    def _tcpin_recv(self, n: Optional[int] = None) -> Any:
+        """pymavlink's ``mavtcpin.recv``, but a vehicle that disconnects
+        frees the line for the next connection (pymavlink keeps the closed
+        socket and reads its end-of-file in a busy loop)."""
+        conn = self.conn
+        if conn.port is None:
+            try:
+                conn.port, _ = conn.listen.accept()
+            except OSError:
+                return b""
+            conn.port.setsockopt(socket.SOL_TCP, socket.TCP_NODELAY, 1)
+            conn.port.setblocking(False)
+            conn.fd = conn.port.fileno()
+        try:
+            data = conn.port.recv(n if n is not None else conn.mav.bytes_needed())
+        except (BlockingIOError, InterruptedError):
+            return b""
+        except OSError:
+            data = b""
+        if not data:
+            conn.port.close()
+            conn.port = None
+            conn.fd = conn.listen.fileno()
+        return data
 
     # ----------------------------------------------------------- signing
     def set_key(self, key: Optional[bytes], timestamp: Optional[int] = None) -> None:
@@ -294,10 +458,6 @@ class Link:
             m = self.conn.recv_match(blocking=True, timeout=timeout)
         except OSError as exc:
             raise LinkError("lost %s: %s" % (self.describe(), exc)) from exc
-        except Exception as exc:  # pyserial's SerialException on a vanished port
-            if type(exc).__name__ == "SerialException":
-                raise LinkError("lost %s: %s" % (self.describe(), exc)) from exc
-            raise
         if m is not None and self.key is not None:
             self._note_clock(m)   # BAD_DATA too: pymavlink refuses a vehicle far behind its clock
         if m is None or m.get_type() == "BAD_DATA":

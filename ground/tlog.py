@@ -8,6 +8,8 @@ microseconds since the Unix epoch, then one raw MAVLink frame, so
 corrupt byte); ``decode`` turns each frame into a dict with pymavlink's
 field names and a ``mavpackettype`` key, using ``shared/mavlink`` (not
 pymavlink): the codec the vehicle runs is the one that reads its logs.
+``trim`` cuts a record a stopped writer left unfinished off a file's end,
+so a log interrupted at any byte is one every reader takes whole.
 """
 
 from __future__ import annotations
@@ -52,6 +54,40 @@ def frame_length(data: bytes, pos: int) -> int:
         return 10 + data[pos + 1] + 2 + (13 if data[pos + 2] & 1 else 0)
     if stx == 0xFE:
         return 6 + data[pos + 1] + 2
+    return 0
+
+
+def complete_length(data: bytes) -> int:
+    """The length of ``data``'s whole records from its start: where a
+    writer that stopped mid-record (an interrupted run) left off. A tlog
+    written record by record has no damage before that point."""
+    pos = 0
+    n = len(data)
+    while pos + 8 < n:
+        flen = frame_length(data, pos + 8)
+        if not flen or pos + 8 + flen > n:
+            break
+        pos += 8 + flen
+    return pos
+
+
+#: The longest record: a timestamp and a signed MAVLink 2 frame of 255 bytes.
+MAX_RECORD = 8 + 10 + 255 + 2 + 13
+
+
+def trim(path: str) -> int:
+    """Cut the unfinished record off the end of ``path``; the bytes cut off
+    (0 for a file that ends on a record). Only a tail shorter than one
+    record is a writer's unfinished one: damage further in is left for
+    ``records`` to skip and report."""
+    import os
+
+    size = os.path.getsize(path)
+    with open(path, "rb") as f:
+        keep = complete_length(f.read())
+    if keep < size and size - keep < MAX_RECORD:
+        os.truncate(path, keep)
+        return size - keep
     return 0
 
 

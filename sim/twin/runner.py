@@ -37,6 +37,19 @@ by more than that frame: a run is deterministic for a seed (same tlog,
 byte for byte) and runs as fast as the machine allows, or paced to
 ``speedup`` times real time.
 
+The end. A run stops at a frame boundary: the reply carries ``["stop"]``
+and the board answers with its report (``"E"``). That happens when the
+scenario is over; with ``linger`` (a ground station on the radio) the
+scenario's end is only noted (``scenario_end_s``) and the vehicle goes on,
+resting where it is, paced to real time, until the run is interrupted.
+``interruptible`` runs take SIGINT (Ctrl-C) as an order to stop at the next
+frame: the report is of what flew so far, marked ``interrupted`` when the
+scenario had not ended; a second Ctrl-C stops at once, and the report is
+made of what the host saw (the board's own counts are then missing). The
+board's child processes run in their own session, so a terminal's Ctrl-C
+reaches the host only. Whatever ends the run, the tlog ends with a whole
+record (``ground/tlog.py`` ``trim``).
+
 Parameters: the board boots from a parameter file the twin writes first:
 the firmware's defaults, the compass calibration of this seed's
 magnetometer (what a calibration on the real vehicle would store), then
@@ -122,6 +135,9 @@ class Options:
     #: Signing passphrase: the vehicle's key on its flash before boot (as
     #: SETUP_SIGNING puts it) and the scripted ground signs; None: no signing
     key: Optional[str] = None
+    #: After the scenario, keep the vehicle alive (real time, radio open)
+    #: until the run is interrupted; needs ``radio``.
+    linger: bool = False
 
 
 # ---------------------------------------------------------------- boards
@@ -260,8 +276,10 @@ class CPythonBoard:
         out_path = self.dir / "console.txt"
         cmd, env = self._command(to_child_r, from_child_w, config)
         with open(out_path, "wb") as out:
+            # its own session: a terminal's Ctrl-C goes to the host, which
+            # stops the board at a frame boundary (Twin.run)
             proc = subprocess.Popen(cmd, env=env, pass_fds=(to_child_r, from_child_w), stdout=out,
-                                    stderr=subprocess.PIPE, cwd=self.cwd)
+                                    stderr=subprocess.PIPE, cwd=self.cwd, start_new_session=True)
         os.close(to_child_r)
         os.close(from_child_w)
         writer = os.fdopen(to_child_w, "wb")
@@ -284,6 +302,9 @@ class CPythonBoard:
                 if answer is not None:
                     writer.write(self._answer(answer))
                     writer.flush()
+        except BaseException:
+            proc.kill()     # the host stopped at once (a second Ctrl-C): so does the board
+            raise
         finally:
             os.close(from_child_r)
             try:
@@ -404,11 +425,14 @@ class Twin:
     """One run of the twin; ``run()`` returns the report (a dict).
 
     ``interpreter``: a ``MicroPython`` to reuse (tests run several twins
-    on one); ``on_radio(radio)`` is called once a ``--radio`` link exists.
+    on one); ``on_radio(radio)`` is called once a ``--radio`` link exists;
+    ``on_frame(twin)`` after each frame the host computed (progress);
+    ``interruptible``: SIGINT stops the run (see the module docstring).
     """
 
     def __init__(self, options: Options, interpreter: Any = None,
-                 on_radio: Optional[Callable[[Any], None]] = None) -> None:
+                 on_radio: Optional[Callable[[Any], None]] = None,
+                 on_frame: Optional[Callable[["Twin"], None]] = None, interruptible: bool = False) -> None:
         from roboray.firmware import app
         from roboray.firmware.param_store import encode
         from roboray.shared.params import ParamTable
@@ -435,6 +459,9 @@ class Twin:
         self.times = timing.BoardTimes()
         if options.speedup is not None and not options.speedup > 0:
             raise ValueError("--speedup %r must be > 0" % options.speedup)
+        if options.linger and options.radio is None:
+            raise ValueError("--linger keeps the vehicle alive for a ground station after the scenario: "
+                             "give --radio too")
         self.scenario = scenarios.make(options.scenario, options.depth, options.target, options.duration)
         faults_mod.check_times(options.faults, self.scenario.duration_s)
         # the firmware's parameter table, as the board will load it; the
@@ -493,6 +520,21 @@ class Twin:
         self.max_board_frame_s = 0.0
         self._t_request: Optional[float] = None
         self._stopping = False
+        self.on_frame = on_frame
+        self.interruptible = interruptible
+        #: Simulated time the SIGINT came at (None: none came).
+        self.interrupted_at: Optional[float] = None
+        #: Simulated time the scenario ended at (None: not yet); with linger
+        #: the vehicle goes on after it.
+        self.scenario_end_s: Optional[float] = None
+        self._scenario_wall = 0.0
+        self._aborted = False
+        #: Pacing: simulated time pace_t0 falls at wall time pace_wall0,
+        #: and time runs pace times faster than real (None: unpaced).
+        self._pace = options.speedup
+        self._pace_t0 = 0.0
+        self._pace_wall0 = 0.0
+        self._kept: dict = {}
         self._interpreter = interpreter
         self.board: Any = None
         self.bytes_up = 0
@@ -543,12 +585,17 @@ class Twin:
             return None   # the board has its stop order; "E" comes next
         self._angles([int(p) for p in parts[0:4]])
         sent = bytes.fromhex(parts[6]) if len(parts) > 6 and parts[6] else b""
-        if len(parts) > 7 and parts[7]:
-            self.times.add(parts[7])
+        if len(parts) > 7 and parts[7] and self.scenario_end_s is None:
+            self.times.add(parts[7])   # the loop's figures are the scenario's, not the lingering's
         reply = self._frame_reply(sent, first=False)
-        if self.options.speedup is not None:
+        if self.scenario_end_s is not None and self.options.linger:
+            self._forget_lingering()
+        if self.on_frame is not None:
+            self.on_frame(self)
+        if self._pace is not None:
             # frame k+1 starts no earlier than its board time allows
-            ahead = self._wall0 + (self.world.t - FRAME_US * 1e-6) / self.options.speedup - time.perf_counter()
+            ahead = (self._pace_wall0 + (self.world.t - FRAME_US * 1e-6 - self._pace_t0) / self._pace
+                     - time.perf_counter())
             if ahead > 0:
                 time.sleep(ahead)
         self.host_wall += time.perf_counter() - now
@@ -578,7 +625,8 @@ class Twin:
         down = g.take()
         if self.radio is not None:
             for frame in self._framer.feed(self.radio.read()):
-                g.record_uplink([frame])
+                if frame[:1] in (b"\xfd", b"\xfe"):   # noise between frames crosses, but is no tlog record
+                    g.record_uplink([frame])
                 down += frame
         down = self._air(down)
         self.bytes_down += len(down)
@@ -666,7 +714,7 @@ class Twin:
             elif name == "overload":
                 events.append(["cost", int(f.arg)])
 
-    def _done(self, t: float) -> bool:
+    def _scenario_over(self, t: float) -> bool:
         s = self.scenario
         w = self.world
         end = t + FRAME_US * 1e-6
@@ -674,10 +722,75 @@ class Twin:
             return True
         return s.settle_s is not None and w.landed_at is not None and end >= w.landed_at + s.settle_s
 
+    def _done(self, t: float) -> bool:
+        """Whether the frame from ``t`` is the run's last (the world has
+        computed it: ``world.t`` is its end)."""
+        if self.interrupted_at is not None:
+            log.info("t=%.2f s: interrupted, the run stops at this frame (Ctrl-C again: at once)", self.world.t)
+            return True
+        if self.scenario_end_s is None and self._scenario_over(t):
+            self.scenario_end_s = round(self.world.t, 3)
+            self._scenario_wall = time.perf_counter() - self._wall0
+            if not self.options.linger:
+                return True
+            self._start_lingering()
+        return False
+
+    def _start_lingering(self) -> None:
+        """The scenario is over, the vehicle stays: real time from here, and
+        the records of the report and the plot stop growing."""
+        log.info("t=%.2f s: the scenario is over; the vehicle stays on the radio (%s) until Ctrl-C",
+                 self.world.t, getattr(self.radio, "describe", ""))
+        self._pace = 1.0
+        self._pace_t0 = self.world.t - FRAME_US * 1e-6
+        self._pace_wall0 = time.perf_counter()
+        # the scenario's operator is done: what it had not done yet (a
+        # --duration shorter than its script) it never does; from here only
+        # the person's ground station acts
+        for a in self.ground.script:
+            if not a.done:
+                a.max_tries = a.tries
+        w, seen = self.world, self.ground.seen
+        self._kept = {id(x): (x, len(x)) for x in (w.log_t, w.log_x, w.log_cmd, seen.heartbeats, seen.sys_status,
+                                                   seen.positions, seen.attitudes)}
+
+    def _forget_lingering(self) -> None:
+        """Drop what the last lingering frame added to the truth and the
+        high-rate telemetry records: hours on the radio cost no memory."""
+        for x, n in self._kept.values():
+            del x[n:]
+
+    def _on_sigint(self, signum: int, frame: Any) -> None:
+        if self.interrupted_at is None:
+            # the next frame's reply stops the board (or the stop is on its
+            # way); nothing else here: a signal handler runs between any two
+            # bytecodes of the host
+            self.interrupted_at = round(self.world.t, 3)
+            return
+        self._aborted = True
+        raise KeyboardInterrupt
+
     # ------------------------------------------------------------ running
     def run(self) -> dict:
+        import signal
+        import threading
+
+        if not (self.interruptible and threading.current_thread() is threading.main_thread()):
+            return self._run()
+        previous = signal.signal(signal.SIGINT, self._on_sigint)
+        try:
+            return self._run()
+        finally:
+            signal.signal(signal.SIGINT, previous if previous is not None else signal.SIG_DFL)
+
+    def _run(self) -> dict:
+        from roboray.tools.micropython import InterpreterDied, MicroPythonError
+
         o = self.options
         t0 = time.perf_counter()
+        self._wall0 = t0
+        console = ""
+        wall = startup = 0.0
         if o.interpreter == "micropython":
             self.board = MicroPythonBoard(self._on_request, self._interpreter)
         elif o.interpreter == "micropython-unix":
@@ -697,15 +810,30 @@ class Twin:
                       "divider": self.table.get(self.table.index("BATT_VOLT_MULT")),
                       "board_time": self.board_time}
             startup = time.perf_counter() - t0
-            self._wall0 = time.perf_counter()
-            console = self.board.run(config, self.first_reply())
+            self._wall0 = self._pace_wall0 = time.perf_counter()
+            try:
+                console = self.board.run(config, self.first_reply())
+                self.param_file = self.board.read_file(PARAM_PATH)
+            except KeyboardInterrupt:
+                if not self.interruptible:
+                    raise
+                self._aborted = True
+                log.warning("stopped at once: the board's own counts are missing from the report")
+            except (InterpreterDied, MicroPythonError, RuntimeError) as exc:
+                if self.interrupted_at is None:
+                    raise
+                # the interrupt reached the board's process too (a terminal
+                # sends it to the whole process group): what the host saw
+                log.warning("the board stopped with the interrupt: %s", str(exc).strip().splitlines()[-1:])
             wall = time.perf_counter() - self._wall0
-            self.param_file = self.board.read_file(PARAM_PATH)
         finally:
             if self.board is not None:
                 self.board.close()
             if self._tlog is not None:
+                from roboray.ground.tlog import trim
+
                 self._tlog.close()
+                trim(self.options.tlog)
             if self.radio is not None:
                 self.radio.close()
         return self._report(console, wall, startup)
@@ -716,6 +844,10 @@ class Twin:
         g = self.ground
         duration = w.t
         br = self.board_report
+        lingered = None
+        if self.scenario_end_s is not None and self.options.linger:
+            lingered = round(duration - self.scenario_end_s, 3)
+            duration, wall = self.scenario_end_s, self._scenario_wall
         report: dict[str, Any] = {
             "scenario": s.name,
             "seed": self.options.seed,
@@ -753,6 +885,7 @@ class Twin:
             "bytes_up": self.bytes_up,
             "bytes_down": self.bytes_down,
             "fixes_sent": g.fixes_sent,
+            "interrupted": self.scenario_end_s is None and (self.interrupted_at is not None or self._aborted),
             "board_wall_s": round(self.board_wall, 3),
             "host_wall_s": round(self.host_wall, 3),
             "max_board_frame_ms": round(self.max_board_frame_s * 1000.0, 3),
@@ -773,6 +906,10 @@ class Twin:
             report.update(self._velocity_error())
         if self.options.tlog:
             report["tlog"] = self.options.tlog
+        if lingered is not None:
+            report["lingered_s"] = lingered
+        if report["interrupted"]:
+            report["interrupted_at_s"] = round(w.t, 3)
         return report
 
     def _velocity_error(self) -> dict:

@@ -158,6 +158,10 @@ class MicroPython:
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
+            # its own session: a terminal's Ctrl-C reaches the host, which
+            # stops a twin at a frame boundary (sim/twin/runner.py); the
+            # interpreter ends when its stdin closes
+            start_new_session=True,
         )
         self._buf = b""
         ready = self._read_message()
