@@ -28,7 +28,7 @@ def test_mpremote_transport_exec_write_read(tmp_path):
             assert t.fs_exists("/lib/blob.bin")
             with pytest.raises(OSError) as info:
                 t.fs_stat("/no/such/file")
-            assert info.value.errno == errno.ENOENT  # Emscripten's 44 rewritten to a board's 2
+            assert info.value.errno == errno.ENOENT  # a board's 2, not Emscripten's 44
             # a soft reboot keeps the file system, as flash does
             t.exit_raw_repl()
             t.enter_raw_repl(soft_reset=True)

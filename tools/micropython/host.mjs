@@ -15,15 +15,19 @@
 //   node host.mjs repl <micropython.mjs> <fs_dir> [heap_bytes] [options_json]
 //       Raw bytes: stdin is the board's USB serial input, stdout its output.
 //       Used behind a pseudo-terminal by the virtual board (virtual_board.py),
-//       which handles the port's quirks on the byte stream. The file system
-//       is loaded from fs_dir at start and written back after every input
-//       chunk, so it outlives a restart like a board's flash does.
-//       options_json (all optional):
-//         interrupt_fd  a non-blocking pipe on which the host signals Ctrl-C
-//                       while Python runs (see "Ctrl-C" below);
+//       which mends what is left of the port's quirks on the byte stream.
+//       The file system is loaded from fs_dir at start and written back
+//       whenever the board waits for input, so it outlives a restart like a
+//       board's flash does.
+//       options_json:
+//         nonblock_fd   (required) stdin's FIFO opened again without
+//                       blocking, so a running program can look for input
+//                       (see "The serial line's receive side" below);
 //         flash_bytes   capacity os.statvfs reports, as a board's flash does;
 //         modules       host .py files the board offers like built-in modules
 //                       (the twin's machine), outside the synced flash;
+//         identity      {platform, machine, build}: what sys.platform,
+//                       sys.implementation and os.uname() say (a Pico 2's);
 //         bad_writes    [path_prefix, n]: the first n writes to files whose
 //                       path starts with path_prefix store their first byte
 //                       with its low bit flipped, as a flash that programs a
@@ -170,6 +174,15 @@ async function execMode() {
 }
 
 // --------------------------------------------------------------- REPL mode
+//
+// The board's flash is the folder FLASH of Emscripten's in-memory file
+// system, which MicroPython mounts at "/" (a VfsPosix rooted there): the
+// board sees its files at the root as a Pico 2 does, and none of
+// Emscripten's own folders (/tmp, /home, /dev, /proc). Built-in modules live
+// in BUILTINS, outside it, as a board's frozen modules are outside its flash.
+const FLASH = "/flash";
+const BUILTINS = "/builtins";
+
 function loadTree(mp, hostDir, mpDir) {
   for (const name of fs.readdirSync(hostDir)) {
     const h = path.join(hostDir, name);
@@ -186,16 +199,16 @@ function loadTree(mp, hostDir, mpDir) {
 // Mirror the MicroPython file system onto fs_dir. A file is written to a
 // temporary name and renamed, so killing the virtual board mid-sync leaves
 // every host file whole, old or new.
-function syncTree(mp, mpDir, hostDir, seen, skip) {
+function syncTree(mp, mpDir, hostDir, seen) {
   for (const name of mp.FS.readdir(mpDir)) {
-    if (name === "." || name === ".." || (skip && skip.has(name))) continue;
+    if (name === "." || name === "..") continue;
     const m = path.posix.join(mpDir, name);
     const h = path.join(hostDir, name);
     const st = mp.FS.stat(m);
     seen.add(h);
     if (mp.FS.isDir(st.mode)) {
       fs.mkdirSync(h, { recursive: true });
-      syncTree(mp, m, h, seen, null);
+      syncTree(mp, m, h, seen);
     } else {
       const data = mp.FS.readFile(m);
       let same = false;
@@ -226,49 +239,153 @@ function pruneTree(hostDir, seen) {
 // that a deployment fits.
 const BLOCK = 4096;
 
-function usedBlocks(mp, dir, skip) {
+function usedBlocks(mp, dir) {
   let blocks = 2;
   for (const name of mp.FS.readdir(dir)) {
-    if (name === "." || name === ".." || (skip && skip.has(name))) continue;
+    if (name === "." || name === "..") continue;
     const p = path.posix.join(dir, name);
     const st = mp.FS.stat(p);
-    if (mp.FS.isDir(st.mode)) blocks += usedBlocks(mp, p, null);
+    if (mp.FS.isDir(st.mode)) blocks += usedBlocks(mp, p);
     else blocks += Math.max(1, Math.ceil(st.size / BLOCK));
   }
   return blocks;
 }
 
-// Ctrl-C. MicroPython here runs synchronously on Node's only thread, so a
-// running program never returns to read stdin; a board would see Ctrl-C in
-// its USB interrupt. The virtual board therefore also writes every Ctrl-C to
-// a side pipe, and this hook, called whenever MicroPython reads its clock
-// (ticks_ms, sleep_ms, file times: any real main loop does), polls that
-// pipe at most every 10 ms and schedules a KeyboardInterrupt as a board's
-// USB handler does. It polls only while Python runs (`state.running`), and
-// signals left from idle times are dropped before each input chunk is
-// processed, so only a Ctrl-C sent while code runs raises.
-function installInterrupt(M, fd, state) {
-  const realNow = Date.now.bind(Date);
-  const buf = Buffer.alloc(64);
-  let last = 0;
-  const drain = () => {
-    let hit = false;
+// The serial line's receive side: what the host sent that neither the REPL
+// nor a program has read yet, as a board's USB receive buffer. The REPL
+// reads it when idle, waiting on stdin; a running program reads it through
+// sys.stdin (mpremote's mount protocol does), and while any program runs
+// the clock hook below looks for new bytes, so Ctrl-C reaches it. Without
+// waiting, because virtual_board.py hands over its FIFO twice: as stdin,
+// blocking, and as nonblock_fd. Bytes that arrive while a program runs pass
+// the board's USB handler: the interrupt character (Ctrl-C, or what
+// micropython.kbd_intr set; none after kbd_intr(-1), as mount's protocol
+// asks) schedules a KeyboardInterrupt instead of being stored.
+function serialInput(M, nbFd, state, hangUp) {
+  const chunk = Buffer.alloc(4096);
+  let rx = Buffer.alloc(0);
+  const sleeper = new Int32Array(new SharedArrayBuffer(4));
+  const input = {
+    // A KeyboardInterrupt scheduled that a read has not yet handed over.
+    interrupted: false,
+    sleepMs: (ms) => Atomics.wait(sleeper, 0, 0, ms),
+    available: () => rx.length,
+  };
+  const arrived = (n) => {
+    let data = Buffer.from(chunk.subarray(0, n));
+    const ic = state.running ? M._mp_hal_get_interrupt_char() : -1;
+    if (ic >= 0 && data.includes(ic)) {
+      const kept = [];
+      for (const c of data) if (c !== ic) kept.push(c);
+      data = Buffer.from(kept);
+      M._mp_sched_keyboard_interrupt();
+      input.interrupted = true;
+    }
+    rx = rx.length ? Buffer.concat([rx, data]) : data;
+  };
+  // Takes in what has arrived, without waiting; false if nothing had.
+  input.look = () => {
+    let n;
+    try {
+      n = fs.readSync(nbFd, chunk, 0, chunk.length, null);
+    } catch (e) {
+      if (e.code === "EAGAIN") return false;
+      throw e;
+    }
+    if (n === 0) hangUp();
+    arrived(n);
+    return true;
+  };
+  // Waits for the host; false once it has closed the line.
+  const wait = () => {
     for (;;) {
-      let n = 0;
-      try { n = fs.readSync(fd, buf, 0, buf.length, null); } catch (e) { return hit; }
-      if (n <= 0) return hit;
-      hit = true;
+      let n;
+      try {
+        n = fs.readSync(0, chunk, 0, chunk.length, null);
+      } catch (e) {
+        if (e.code === "EAGAIN") { input.sleepMs(1); continue; }
+        if (e.code === "EOF") return false;
+        throw e;
+      }
+      if (n === 0) return false;
+      arrived(n);
+      return true;
     }
   };
+  // For the REPL: the next byte, waiting (idle() first) when there is none;
+  // null once the host has closed the line.
+  input.next = (idle) => {
+    while (!rx.length) {
+      idle();
+      if (!wait()) return null;
+    }
+    const c = rx[0];
+    rx = rx.subarray(1);
+    return c;
+  };
+  // For the REPL: the byte k places ahead, waiting for it; undefined at the end.
+  input.peek = (k) => {
+    while (rx.length <= k) if (!wait()) return undefined;
+    return rx[k];
+  };
+  input.skip = (k) => { rx = rx.subarray(k); };
+  // sys.stdin's read, as a board's: it waits until it has all it asked for.
+  // A Ctrl-C while it waits ends it at once (EINTR: MicroPython raises the
+  // KeyboardInterrupt there).
+  input.read = (buffer, offset, length) => {
+    let n = 0;
+    while (n < length) {
+      if (rx.length) {
+        const k = Math.min(rx.length, length - n);
+        buffer.set(rx.subarray(0, k), offset + n);
+        rx = rx.subarray(k);
+        n += k;
+      } else if (input.interrupted) {
+        break;
+      } else if (!input.look()) {
+        input.sleepMs(1);
+      }
+    }
+    if (n === 0 && length > 0) {
+      input.interrupted = false;
+      throw new M.FS.ErrnoError(27); // Emscripten's EINTR
+    }
+    return n;
+  };
+  input.readable = () => rx.length > 0 || (input.look() && rx.length > 0);
+  return input;
+}
+
+// The clock. MicroPython here runs synchronously on Node's only thread, so a
+// running program never returns to read stdin; a board would see Ctrl-C in
+// its USB interrupt. This hook runs whenever MicroPython reads its clock
+// (ticks_ms, sleep_ms, file times: any real main loop does) and, while a
+// program runs, takes in what the host sent at most every 10 ms. It also
+// gives the core away in a busy wait: the port's sleep_ms and select.poll's
+// time-out spin on the clock, so after 20 readings within one millisecond
+// the thread sleeps a millisecond.
+function installClock(input, state) {
+  const realNow = Date.now.bind(Date);
+  let lastLook = 0;
+  let lastT = 0;
+  let same = 0;
   Date.now = () => {
-    const t = realNow();
-    if (state.running && t - last >= 10) {
-      last = t;
-      if (drain()) M._mp_sched_keyboard_interrupt();
+    let t = realNow();
+    if (!state.running) return t;
+    if (t - lastLook >= 10) {
+      lastLook = t;
+      input.look();
+    }
+    if (t !== lastT) {
+      lastT = t;
+      same = 0;
+    } else if (++same >= 20) {
+      same = 0;
+      input.sleepMs(1);
+      t = realNow();
     }
     return t;
   };
-  return drain;
 }
 
 // Bad writes. The flash is Emscripten's in-memory file system, which the
@@ -288,109 +405,272 @@ function installBadWrites(mp, prefix, count) {
   };
 }
 
+// File errors with a board's numbers. Emscripten's file system speaks
+// WASI's errno (ENOENT is 44), which MicroPython raises as it is, so
+// OSError.errno matched nothing in the errno module and tracebacks said
+// "OSError: 44". The interpreter's imports are wrapped as it is
+// instantiated: a syscall's -errno and a WASI call's errno come back as
+// MicroPython's (mperrno.h, Linux's numbers), so the board prints and
+// compares what a Pico does. EINTR stays as it is: the interpreter retries
+// on its own number.
+const BOARD_ERRNO = {
+  63: 1, 44: 2, 29: 5, 8: 9, 6: 11, 48: 12, 2: 13, 10: 16, 20: 17, 43: 19, 54: 20,
+  31: 21, 28: 22, 51: 28, 69: 30, 55: 39, 138: 95, 73: 110,
+};
+
+function boardErrnoImports() {
+  const instantiate = WebAssembly.instantiate;
+  WebAssembly.instantiate = function (binary, imports) {
+    const wrapped = {};
+    for (const [mod, fns] of Object.entries(imports)) {
+      wrapped[mod] = {};
+      for (const [name, fn] of Object.entries(fns)) {
+        if (typeof fn !== "function") wrapped[mod][name] = fn;
+        else if (name.startsWith("__syscall_")) {
+          wrapped[mod][name] = (...a) => { const r = fn(...a); return r < 0 && BOARD_ERRNO[-r] ? -BOARD_ERRNO[-r] : r; };
+        } else if (name.startsWith("fd_")) {
+          wrapped[mod][name] = (...a) => { const r = fn(...a); return r > 0 && BOARD_ERRNO[r] ? BOARD_ERRNO[r] : r; };
+        } else wrapped[mod][name] = fn;
+      }
+    }
+    WebAssembly.instantiate = instantiate;
+    return instantiate.call(this, binary, wrapped);
+  };
+}
+
+// The board's identity. sys.platform, sys.version and sys.implementation's
+// _machine and _build are string objects in the interpreter's static data
+// (id() gives their address): each is pointed at a copy of what a Pico 2
+// answers, once, and stays so across soft resets. A string that is not
+// where and what id() says is left alone. Returns os.uname()'s fields.
+function patchIdentity(mp, identity) {
+  const M = mp._module;
+  mp.runPython(
+    "import sys, json\n" +
+    "__vb = json.dumps([[id(s), s] for s in (sys.platform, sys.version, " +
+    "sys.implementation._machine, sys.implementation._build)] + " +
+    "['%d.%d.%d' % sys.implementation.version[:3]])\ndel sys, json\n"
+  );
+  const found = JSON.parse(mp.globals.get("__vb"));
+  mp.runPython("del __vb");
+  const release = found.pop();
+  const [, , , , date] = /^(.*MicroPython v)(\S+)( on )(\S+)/.exec(found[1][1]) || [];
+  const version = "v" + release + (date ? " on " + date : "");
+  const wanted = [identity.platform, "3.4.0; MicroPython " + version, identity.machine, identity.build];
+  const heap = M.HEAPU8;
+  const words = new Uint32Array(heap.buffer);
+  found.forEach(([addr, old], i) => {
+    const want = wanted[i];
+    if (want === undefined || want === old) return;
+    // mp_obj_str_t on wasm32: type, hash, len, data
+    const w = addr >>> 2;
+    const oldBytes = Buffer.from(old, "utf8");
+    if (addr % 4 || words[w + 2] !== oldBytes.length ||
+        Buffer.compare(Buffer.from(heap.subarray(words[w + 3], words[w + 3] + oldBytes.length)), oldBytes) !== 0) {
+      process.stderr.write("virtual board: cannot set " + JSON.stringify(old) + " to " + JSON.stringify(want) + "\n");
+      return;
+    }
+    const bytes = Buffer.from(want, "utf8");
+    const data = M._malloc(bytes.length + 1);
+    heap.set(bytes, data);
+    heap[data + bytes.length] = 0;
+    words[w + 1] = 0; // hash: computed on demand
+    words[w + 2] = bytes.length;
+    words[w + 3] = data;
+  });
+  return [identity.platform, identity.platform, release, version, identity.machine];
+}
+
 async function replMode() {
   const fsDir = process.argv[4];
   const heap = parseInt(process.argv[5] || "8388608", 10);
   const options = JSON.parse(process.argv[6] || "{}");
-  // The board's flash is the root, as on rp2; Emscripten's own folders are
-  // not part of it and are never synced.
-  const ROOT = "/";
-  const SYSTEM = new Set(["tmp", "home", "dev", "proc"]);
-  // Built-in modules the board offers (the twin's machine) live here, on
-  // the import path but outside the synced flash, as a board's frozen
-  // modules are.
-  const BUILTINS = "/home/roboray";
+  if (options.nonblock_fd === undefined) {
+    process.stderr.write("host.mjs repl: options need nonblock_fd (virtual_board.py passes it)\n");
+    process.exit(2);
+  }
+  let muted = false;
+  // Output the REPL prints about itself (its banner) is held and reworded.
+  let held = null;
+  const out = (b) => {
+    if (muted) return;
+    if (held) held.push(Buffer.from(b));
+    else writeAll(Buffer.from(b));
+  };
+  const banner = options.identity ? (fn) => {
+    held = [];
+    try { return fn(); } finally {
+      const text = Buffer.concat(held).toString("latin1");
+      held = null;
+      writeAll(Buffer.from(text.replace(
+        /MicroPython v(\d+\.\d+\.\d+)\S* on (\S+); JS with Emscripten/,
+        "MicroPython v$1 on $2; " + options.identity.machine), "latin1"));
+    }
+  } : (fn) => fn();
+  boardErrnoImports();
   const mp = await loadMicroPython({
     heapsize: heap,
     linebuffer: false,
-    stdout: (b) => writeAll(Buffer.from(b)),
-    stderr: (b) => writeAll(Buffer.from(b)),
+    // fd 0 becomes a device of its own, whose read and poll are ours (below)
+    stdin: () => null,
+    stdout: out,
+    stderr: out,
   });
   const M = mp._module;
-  loadTree(mp, fsDir, ROOT);
-  if (options.bad_writes) installBadWrites(mp, options.bad_writes[0], options.bad_writes[1]);
+  mp.FS.mkdirTree(FLASH);
+  loadTree(mp, fsDir, FLASH);
+  if (options.bad_writes) installBadWrites(mp, FLASH + options.bad_writes[0], options.bad_writes[1]);
   const modules = options.modules || [];
   if (modules.length) mp.FS.mkdirTree(BUILTINS);
   for (const file of modules) {
     mp.FS.writeFile(path.posix.join(BUILTINS, path.basename(file)), fs.readFileSync(file));
   }
-  const state = { running: false };
-  const dropInterrupts = options.interrupt_fd !== undefined
-    ? installInterrupt(M, options.interrupt_fd, state) : () => false;
-  const running = (fn) => {
-    state.running = true;
-    try { return fn(); } finally { state.running = false; }
-  };
+  const uname = options.identity ? patchIdentity(mp, options.identity) : null;
 
   const sync = () => {
     const seen = new Set();
-    syncTree(mp, ROOT, fsDir, seen, SYSTEM);
+    syncTree(mp, FLASH, fsDir, seen);
     pruneTree(fsDir, seen);
   };
-
-  // Per VM: what a board has built in. Registered again after each soft
-  // reboot, which clears the VM's module table.
-  const builtins = () => {
-    let code = "";
-    if (options.flash_bytes) {
-      const total = Math.floor(options.flash_bytes / BLOCK);
-      mp.registerJsModule("_vboard", { used: () => usedBlocks(mp, ROOT, SYSTEM) });
-      code +=
-        "import _vboard\n" +
-        "def _statvfs(path, _used=_vboard.used):\n" +
-        "    os.stat(path)\n" +
-        "    free = max(0, " + total + " - _used())\n" +
-        "    return (" + BLOCK + ", " + BLOCK + ", " + total + ", free, free, 0, 0, 0, 0, 255)\n" +
-        "os.statvfs = _statvfs\n" +
-        "del _statvfs, _vboard, sys.modules['_vboard']\n";
-    }
-    if (modules.length) code += "sys.path.insert(0, '" + BUILTINS + "')\n";
-    return code;
+  const state = { running: false };
+  // The host closed the line: the board is unplugged, its flash kept.
+  const hangUp = () => {
+    sync();
+    process.exit(0);
+  };
+  const input = serialInput(M, options.nonblock_fd, state, hangUp);
+  installClock(input, state);
+  const stdinOps = mp.FS.getStream(0).stream_ops;
+  stdinOps.read = (stream, buffer, offset, length) => input.read(buffer, offset, length);
+  stdinOps.poll = () => (input.readable() ? 1 : 0) | 4; // POLLIN, POLLOUT
+  const running = (fn) => {
+    state.running = true;
+    try { return fn(); } finally { state.running = false; input.interrupted = false; }
   };
 
-  // Boot the way a board does: cwd on the flash, boot.py, then main.py
-  // unless the REPL is raw (a host tool is driving it).
-  const boot = (rawMode) => {
-    mp.runPython(
-      "import os, sys\nos.chdir('" + ROOT + "')\n" +
-      "sys.path.clear()\nsys.path.extend(['', '.frozen', '/lib'])\n" + builtins() +
-      "del os, sys\n"
-    );
-    for (const script of rawMode ? ["boot.py"] : ["boot.py", "main.py"]) {
-      let exists = true;
-      try { mp.FS.stat(path.posix.join(ROOT, script)); } catch (e) { exists = false; }
-      if (!exists) continue;
-      try {
-        running(() => mp.runPython("exec(open('" + script + "').read(), {'__name__': '__main__'})"));
-      } catch (e) {
-        writeAll(Buffer.from(String(e.message).replace(/\r?\n/g, "\r\n"), "utf8"));
-      }
+  // machine.reset() asks for a hard reset here, then raises SystemExit to
+  // end the program; from then on the board says nothing, as a Pico whose
+  // USB has gone.
+  let resetRequest = null;
+  // A program that caught the SystemExit carries on: the reset never was.
+  const unmute = () => { resetRequest = null; muted = false; };
+
+  // Per VM: the flash at "/", os, sys and input() as rp2 has them, the
+  // built-in modules (pico2_start.py).
+  const startCode = fs.readFileSync(new URL("pico2_start.py", import.meta.url), "utf8");
+  const config = JSON.stringify({
+    flash: FLASH,
+    block: BLOCK,
+    blocks: options.flash_bytes ? Math.floor(options.flash_bytes / BLOCK) : 0,
+    uname,
+    builtins: modules.map((f) => path.basename(f, ".py")),
+    builtins_dir: BUILTINS,
+  });
+  const setup = () => {
+    // New JS objects for each VM: one the VM before saw maps to a proxy in
+    // that VM's freed heap.
+    mp.registerJsModule("_vboard", {
+      config,
+      used: () => usedBlocks(mp, FLASH),
+      sync: () => { sync(); },
+      reset: () => { resetRequest = "hard"; muted = true; },
+    });
+    try {
+      mp.runPython(startCode);
+    } catch (e) {
+      writeAll(Buffer.from(String(e.message).replace(/\r?\n/g, "\r\n"), "utf8"));
     }
   };
 
+  // A script as a board runs boot.py and main.py: in the REPL's globals,
+  // Ctrl-C interrupts it, its traceback names the file; null, or the reset
+  // it asked for (SystemExit: machine.reset(), machine.soft_reset(),
+  // sys.exit()).
+  const runScript = (script) => {
+    try { mp.FS.stat(path.posix.join(FLASH, script)); } catch (e) { return null; }
+    try {
+      running(() => mp.runPython(
+        "__import__('micropython').kbd_intr(3)\n" +
+        "try:\n" +
+        "    exec(compile(open('" + script + "').read(), '" + script + "', 'exec'), globals())\n" +
+        "finally:\n" +
+        "    __import__('micropython').kbd_intr(-1)\n"
+      ));
+    } catch (e) {
+      if (e.type === "SystemExit") return resetRequest || "soft";
+      unmute();
+      writeAll(Buffer.from(String(e.message).replace(/\r?\n/g, "\r\n"), "utf8"));
+    }
+    unmute();
+    return null;
+  };
+
+  // Boot the way a board does: boot.py, then main.py unless the REPL is raw
+  // (a host tool is driving it). A soft reset keeps the REPL's mode and says
+  // so; a hard reset (machine.reset()) starts over in the friendly REPL, as
+  // after power-on.
   let raw = false;
-  boot(false);
-  mp.replInit();
-  for (;;) {
-    const chunk = readChunk();
-    if (chunk === null) break;
-    dropInterrupts();
-    for (const c of chunk) {
-      if (c === 1) raw = true;       // Ctrl-A: raw REPL
-      else if (c === 2) raw = false; // Ctrl-B: friendly REPL
-      const r = running(() => mp.replProcessChar(c));
-      if (r & 256) {
-        // PYEXEC_FORCED_EXIT: Ctrl-D asked for a soft reset, which this port
-        // leaves to its host. Re-initialise the VM on the same file system.
+  const start = (reset) => {
+    const pyexecRaw = raw;
+    for (;;) {
+      if (reset) {
         sync();
-        writeAll(Buffer.from("MPY: soft reboot\r\n"));
+        muted = false;
+        if (reset === "soft") {
+          writeAll(Buffer.from("MPY: soft reboot\r\n"));
+        } else {
+          raw = false;
+          input.skip(input.available()); // the USB receive buffer goes with the reset
+        }
         M.ccall("mp_js_init", "null", ["number", "number"], [2048, heap]);
         M.ccall("proxy_c_init", "null", [], []);
-        boot(raw);
-        mp.replInit();
       }
+      resetRequest = null;
+      setup();
+      reset = null;
+      for (const script of raw ? ["boot.py"] : ["boot.py", "main.py"]) {
+        reset = runScript(script);
+        if (reset) break;
+      }
+      if (!reset) break;
     }
-    sync();
+    if (pyexecRaw && !raw) {
+      // The REPL itself remembers raw mode across a VM's re-initialisation.
+      muted = true;
+      mp.replInit();
+      muted = false;
+      banner(() => mp.replProcessChar(2));
+    } else {
+      banner(() => mp.replInit());
+    }
+  };
+
+  start(null);
+  // Raw REPL: nothing received since its prompt, where raw-paste may be
+  // asked for (Ctrl-E A Ctrl-A). The port mishandles raw-paste (it reads
+  // the pasted code from a stdin it does not have), so the board answers
+  // "R\x00", not supported, and the host falls back to the plain raw REPL.
+  let fresh = false;
+  for (;;) {
+    const c = input.next(sync);
+    if (c === null) break;
+    if (raw && fresh && c === 5 && input.peek(0) === 0x41 && input.peek(1) === 1) {
+      input.skip(2);
+      writeAll(Buffer.from("R\x00", "latin1"));
+      continue;
+    }
+    if (c === 1) raw = true;       // Ctrl-A: raw REPL
+    else if (c === 2) raw = false; // Ctrl-B: friendly REPL
+    // Ctrl-B runs nothing: it prints the banner
+    const r = c === 2 ? banner(() => mp.replProcessChar(c)) : running(() => mp.replProcessChar(c));
+    fresh = raw && (c === 1 || c === 4);
+    if (!(r & 256) && resetRequest) unmute();
+    if (r & 256) {
+      // PYEXEC_FORCED_EXIT: a soft reset (Ctrl-D on an empty line, or
+      // SystemExit), or machine.reset()'s hard one.
+      start(resetRequest || "soft");
+      fresh = raw;
+    }
   }
   sync();
 }
