@@ -7,17 +7,23 @@ protocol runs within the allocation bound of the endpoint's handling."""
 from __future__ import annotations
 
 import math
+import os
 
 import pytest
-from pymavlink import mavwp
-from pymavlink.dialects.v20 import common as pm
 
-from roboray.shared import modes as M
-from roboray.shared import param_defs
-from roboray.shared.mavlink import mission as MI
-from roboray.shared.mavlink.endpoint import Endpoint
-from roboray.shared.mavlink.telemetry import Telemetry
-from roboray.shared.params import ParamTable
+os.environ["MAVLINK20"] = "1"
+from pymavlink import mavutil, mavwp  # noqa: E402
+from pymavlink.dialects.v20 import common as pm  # noqa: E402
+
+from roboray.shared import modes as M  # noqa: E402
+from roboray.shared import param_defs  # noqa: E402
+from roboray.shared.mavlink import mission as MI  # noqa: E402
+from roboray.shared.mavlink.endpoint import Endpoint  # noqa: E402
+from roboray.shared.mavlink.telemetry import Telemetry  # noqa: E402
+from roboray.shared.params import ParamTable  # noqa: E402
+
+# mavwp builds its items with mavutil's dialect: MAVLink 2's common, as the ground's link sets it
+mavutil.set_dialect("common")
 
 SYS, COMP = 1, 1
 LOCAL = pm.MAV_FRAME_LOCAL_NED

@@ -24,6 +24,9 @@ from pymavlink.dialects.v20 import common as pm  # noqa: E402
 from roboray.ground.vehicle import PtyVehicle  # noqa: E402
 from roboray.shared.mavlink import mission as MI  # noqa: E402
 
+# mavwp builds its items with mavutil's dialect: MAVLink 2's common, as the ground's link sets it
+mavutil.set_dialect("common")
+
 SYS, COMP = 1, 1
 WAYPOINTS = "QGC WPL 110\n0\t0\t1\t16\t0\t0\t0\t0\t0\t0\t0\t1\n1\t1\t1\t21\t0\t0\t0\t0\t2.5\t-1.0\t8\t1\n"
 
