@@ -195,7 +195,7 @@ def test_param_pdef_writes_the_documentation_without_a_vehicle(tmp_path):
 
 def test_signed_vehicle_obeys_only_the_key(signed_vehicle, tmp_path):
     r = ground("arm", "--master", signed_vehicle.device, "--key", PASSPHRASE)
-    assert (r.returncode, r.stdout.strip()) == (0, "armed"), r.stderr
+    assert (r.returncode, r.stdout.strip()) == (0, "armed in PASSIVE"), r.stderr
     keyfile = tmp_path / "key"
     keyfile.write_text(PASSPHRASE + "\n")
     r = ground("param", "set", "SR_SERVO", "5", "--master", signed_vehicle.device, "--key-file", str(keyfile))
@@ -236,7 +236,7 @@ def test_signing_setup_then_only_that_key_then_signing_remove():
         r = ground("signing", "setup", "mine now", "--master", d)   # without the current key: refused here
         assert r.returncode == 1 and "it has a key; give the current one with --key" in r.stderr, r.stderr
         r = ground("arm", "--master", d, "--key", "kelp forest")
-        assert (r.returncode, r.stdout.strip()) == (0, "armed"), r.stderr
+        assert (r.returncode, r.stdout.strip()) == (0, "armed in PASSIVE"), r.stderr
         r = ground("signing", "remove", "--master", d, "--key", "kelp forest")
         assert r.returncode == 1 and "armed" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
         r = ground("disarm", "--master", d, "--key", "kelp forest")
@@ -249,7 +249,7 @@ def test_signing_setup_then_only_that_key_then_signing_remove():
         assert r.returncode == 0 and json.loads(r.stdout) == {"signing": "off", "system": 1, "changed": True}, r.stderr
         v.restart()
         r = ground("arm", "--master", d)
-        assert (r.returncode, r.stdout.strip()) == (0, "armed"), r.stderr
+        assert (r.returncode, r.stdout.strip()) == (0, "armed in PASSIVE"), r.stderr
         r = ground("disarm", "--master", d)
         assert r.returncode == 0, r.stderr
         r = ground("signing", "remove", "--master", d)
@@ -286,7 +286,7 @@ def test_log_record_dump_and_plot(vehicle, tmp_path):
     ours = [json.loads(line) for line in r.stdout.splitlines()]
     # pymavlink reads the same file (MAVProxy's format) to the same messages
     os.environ["MAVLINK20"] = "1"
-    mlog = mavutil.mavlink_connection(str(log), dialect="common")
+    mlog = mavutil.mavlink_connection(str(log), dialect="development")   # common.xml and CURRENT_MODE
     theirs = []
     while True:
         m = mlog.recv_msg()
