@@ -968,16 +968,26 @@ def run_spec(spec: FlightSpec) -> dict:
     return out
 
 
-def run_all(specs: Sequence[FlightSpec], workers: int = 1) -> list[dict]:
-    """``run_spec`` over ``specs`` in order, on ``workers`` processes."""
+def run_all(specs: Sequence[FlightSpec], workers: int = 1, done=None) -> list[dict]:
+    """``run_spec`` over ``specs`` in order, on ``workers`` processes;
+    ``done()`` is called as each flight ends, in whatever order they end."""
+    done = done or (lambda: None)
     if workers <= 1:
-        return [run_spec(s) for s in specs]
+        out = []
+        for s in specs:
+            out.append(run_spec(s))
+            done()
+        return out
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     # spawn, not fork: numba's OpenMP threads make a forked child unsafe
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        return list(pool.map(run_spec, specs, chunksize=1))
+        futures = [pool.submit(run_spec, s) for s in specs]
+        for f in as_completed(futures):
+            f.result()   # a failed flight stops the batch at once
+            done()
+        return [f.result() for f in futures]
 
 
 def summary(results: Sequence[dict]) -> dict:
@@ -1069,26 +1079,32 @@ def measure_on(mp, spec: FlightSpec, log: list, warm: int = 50) -> dict:
     return {"heap_bytes": int(max(nbytes)), "heap_bytes_each": nbytes, "us_per_step": float(us), "last_out": last}
 
 
-def micropython_costs(steps: int = 200, mp=None) -> dict:
+def micropython_costs(steps: int = 200, mp=None, done=None) -> dict:
     """Heap bytes and time of controller steps on the real MicroPython, for
     every mode of ``BENCH_FLIGHTS`` (cascade) and a few backstepping steps;
     a board figure from the time scaled by a float multiply's (7.2 us on an
-    RP2350, ``RP2350_US_PER_FLOAT`` in ``sim/estimation.py``)."""
+    RP2350, ``RP2350_US_PER_FLOAT`` in ``sim/estimation.py``). ``done(name)``
+    is called as each part ends: the interpreter's start, each mode, the
+    backstepping (``len(BENCH_FLIGHTS) + 2`` calls)."""
     import contextlib
 
     from roboray.tools.micropython import MicroPython
 
+    done = done or (lambda name: None)
     with contextlib.ExitStack() as stack:
         if mp is None:
             mp = stack.enter_context(MicroPython())
             mp.install_board_code()
+        done("start")
         by_mode = {}
         for name in BENCH_FLIGHTS:
             spec, log = bench_log(name, steps)
             m = measure_on(mp, spec, log)
             by_mode[name] = {"heap_bytes": m["heap_bytes"], "us_per_step": m["us_per_step"]}
+            done(name)
         spec, log = bench_log("target", min(steps, 20), controller="backstepping")
         back = measure_on(mp, spec, log)
+        done("backstepping")
         mp.exec(_MEASURE)
         us_mul = float(mp.eval("mul_loop(100000)"))
         version = mp.version

@@ -1,51 +1,90 @@
 """Where the vehicle is stable, over slices of the wing configurations.
 
-For every configuration of a grid: the largest real part of the eigenvalues
-of (a) the thesis's straight fall in the reduced model (chapter 3: neutral
-buoyancy, no drag, equilibrium 3.2 with v2 = 0 at ``V3_REDUCED``; blank
-where the configuration has no such equilibrium: without the symmetry
-s1 = s3, s2 = s4 the locked inertia couples heave to surge and a straight
-fall is not steady), and (b) the steady descent with drag the vehicle
-settles into (``trim``), leaving out a neutral spin mode (flat plates put
-no drag against spin, so a symmetric vehicle's spin eigenvalue is 0 and
-would hide how well its feathering is damped). Two slices: s1 = s3 against
-s2 = s4, and s1 against s3 with s2 = s4 = 45 deg.
+For every configuration of a grid:
+
+(a) the thesis's straight fall in the reduced model (chapter 3: neutral
+buoyancy, no drag, equilibrium 3.2 with v2 = 0 at ``V3_REDUCED``). Without
+drag nothing is damped: a stable fall has every eigenvalue on the
+imaginary axis, so the largest real part is 0 wherever it is stable and
+says nothing more. What tells configurations apart is how hard gravity
+rights the vehicle: the slowest tilt oscillation (Hz; the smallest
+imaginary part, the weaker of the pitch and roll modes), with the
+configurations where a real part is positive marked unstable. None where
+the configuration has no such equilibrium: there the locked inertia
+couples heave to surge (as it does without the symmetry wing 1 = wing 3,
+wing 2 = wing 4, but for the few where the couplings cancel) and a
+straight fall is not steady;
+
+(b) the steady descent with drag the vehicle settles into (``trim``): the
+largest real part of its eigenvalues, leaving out a neutral spin mode (flat
+plates put no drag against spin, so a symmetric vehicle's spin eigenvalue
+is 0 and would hide how well its feathering is damped); None where the
+drop does not settle into a steady descent.
+
+Two slices: wing 1 = wing 3 against wing 2 = wing 4, and wing 1 against
+wing 3 with wings 2 and 4 at 45 deg.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from roboray.sim.analysis.envelope import settle_batch
-from roboray.sim.analysis.reduced import ReducedModel, spectrum
+from roboray.sim.analysis.envelope import COST_MODES_S, settle_batch, settle_cost
+from roboray.sim.analysis.reduced import SPECTRAL_TOL, ReducedModel, spectrum
 from roboray.sim.analysis.trim import NEUTRAL_TOL, modes
 from roboray.sim.dynamics import Model
+from roboray.sim.progress import QUIET
 from roboray.sim.vehicle import Vehicle
 
 V3_REDUCED = 0.3  #: m/s, the thesis's descent speed
+#: Seconds of one core for a reduced-model equilibrium and its spectrum
+#: (the progress bar's weight, beside ``envelope.COST_*``).
+COST_REDUCED_S = 2e-4
 
 SLICES = {
-    "s13_vs_s24": ("s1 = s3 (deg)", "s2 = s4 (deg)", lambda a, b: (a, b, a, b)),
-    "s1_vs_s3_at_s24_45": ("s1 (deg)", "s3 (deg)", lambda a, b: (a, 45.0, b, 45.0)),
+    "s13_vs_s24": ("wing 1 = wing 3 (deg)", "wing 2 = wing 4 (deg)", lambda a, b: (a, b, a, b),
+                   "wing 1 = wing 3 against wing 2 = wing 4"),
+    "s1_vs_s3_at_s24_45": ("wing 1 (deg)", "wing 3 (deg)", lambda a, b: (a, 45.0, b, 45.0),
+                           "wing 1 against wing 3, wings 2 and 4 at 45 deg"),
 }
 
 
-def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0) -> dict:
+def compute_cost(step_deg: float = 10.0, settle_s: float = 30.0) -> float:
+    """What ``compute`` will cost, in the weights it reports to its progress."""
+    n = len(np.arange(0.0, 90.0 + 1e-9, step_deg)) ** 2
+    return len(SLICES) * (n * (COST_REDUCED_S + COST_MODES_S) + settle_cost(n, settle_s))
+
+
+def _reduced(vehicle: Vehicle, wings_deg) -> tuple[float, float]:
+    """(max real part 1/s, slowest tilt oscillation Hz) of the straight
+    fall, NaN for both where it is no equilibrium."""
+    red = ReducedModel.of(vehicle, np.radians(wings_deg))
+    state = red.no_spin_state(0.0, V3_REDUCED)
+    if state is None or np.abs(red.field(state)).max() > 1e-9:
+        return float("nan"), float("nan")
+    spec = spectrum(red.jacobian(state))
+    eig = spec["eigenvalues"]
+    scale = max(1.0, float(np.abs(eig).max()))
+    swinging = np.abs(eig.imag)[np.abs(eig.imag) > SPECTRAL_TOL * scale]
+    slowest = float(swinging.min()) / (2 * np.pi) if swinging.size else 0.0
+    return spec["max_real_eig"], slowest
+
+
+def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0, progress=QUIET) -> dict:
+    """Both slices; ``progress`` (``sim/progress.py``) advances by ``compute_cost``."""
     vehicle = Vehicle(params)
     model = Model(params)
     axis = np.arange(0.0, 90.0 + 1e-9, step_deg)
-    out = {"axis_deg": axis.tolist(), "v3_reduced": V3_REDUCED, "slices": {}}
-    for name, (xlabel, ylabel, make) in SLICES.items():
+    out = {"axis_deg": axis.tolist(), "v3_reduced": V3_REDUCED, "spectral_tolerance": SPECTRAL_TOL, "slices": {}}
+    for number, (name, (xlabel, ylabel, make, title)) in enumerate(SLICES.items()):
+        progress.set_postfix_str("slice %d of %d" % (number + 1, len(SLICES)))
         configs = [make(a, b) for b in axis for a in axis]   # rows: y values
         reduced = np.empty(len(configs))
+        tilt_hz = np.empty(len(configs))
         for k, w in enumerate(configs):
-            red = ReducedModel.of(vehicle, np.radians(w))
-            state = red.no_spin_state(0.0, V3_REDUCED)
-            if np.abs(red.field(state)).max() > 1e-9:
-                reduced[k] = np.nan       # not an equilibrium of this configuration
-            else:
-                reduced[k] = spectrum(red.jacobian(state))["max_real_eig"]
-        trims = settle_batch(params, np.array(configs), settle_s)
+            reduced[k], tilt_hz[k] = _reduced(vehicle, w)
+            progress.update(COST_REDUCED_S)
+        trims = settle_batch(params, np.array(configs), settle_s, progress)
         drag = np.full(len(configs), np.nan)
         glide = np.full(len(configs), np.nan)
         for k, t in enumerate(trims):
@@ -54,44 +93,88 @@ def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0) -> dict
                         if not (m["mode"] == "spin" and abs(m["eigenvalue"][0]) <= NEUTRAL_TOL)]
                 drag[k] = max(lam[0] for lam in lams)
                 glide[k] = t.glide_ratio if t.straight else 0.0
+            progress.update(COST_MODES_S)
         shape = (len(axis), len(axis))
         out["slices"][name] = {
-            "x_label": xlabel, "y_label": ylabel,
+            "title": title, "x_label": xlabel, "y_label": ylabel,
             "reduced_max_real_eig": reduced.reshape(shape).tolist(),
+            "reduced_slowest_tilt_hz": tilt_hz.reshape(shape).tolist(),
             "trim_max_real_eig": drag.reshape(shape).tolist(),
             "trim_glide_ratio": glide.reshape(shape).tolist(),
         }
     return out
 
 
-def plot(result: dict, path: str) -> None:
+#: What a grey cell means, column by column.
+NO_EQUILIBRIUM = "grey: a straight fall is not steady (heave couples to surge)"
+NO_TRIM = "grey: the drop does not settle into a steady descent"
+
+
+def figure(result: dict):
+    """The map as a matplotlib figure: a row a slice; left, the reduced
+    model's slowest tilt oscillation (hatched where unstable); right, the
+    largest real part with drag (red: unstable)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.patches import Patch, Rectangle
 
     axis = np.array(result["axis_deg"])
     step = axis[1] - axis[0] if len(axis) > 1 else 1.0
-    fig, axes = plt.subplots(2, 2, figsize=(11, 9))
     extent = (axis[0] - step / 2, axis[-1] + step / 2, axis[0] - step / 2, axis[-1] + step / 2)
-    for row, (name, sl) in enumerate(result["slices"].items()):
-        for col, (key, title) in enumerate((
-                ("reduced_max_real_eig", "reduced model (no drag), straight fall v3 = %g m/s" % result["v3_reduced"]),
-                ("trim_max_real_eig", "full model with drag, settled descent (neutral spin left out)"))):
-            data = np.array(sl[key], float)
-            finite = data[np.isfinite(data)]
-            lim = max(1e-3, float(np.abs(finite).max())) if finite.size else 1.0
-            ax = axes[row, col]
-            cmap = matplotlib.colormaps["RdBu_r"].copy()
-            cmap.set_bad("lightgrey")   # no equilibrium / no trim
-            im = ax.imshow(np.ma.masked_invalid(data), origin="lower", extent=extent, cmap=cmap,
-                           norm=TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim), aspect="auto")
-            ax.set_xlabel(sl["x_label"])
-            ax.set_ylabel(sl["y_label"])
-            ax.set_title(title, fontsize=9)
-            fig.colorbar(im, ax=ax, label="max Re(eigenvalue), 1/s (red: unstable)")
+    slices = result["slices"]
+    fig, axes = plt.subplots(len(slices), 2, figsize=(12, 5.2 * len(slices)), squeeze=False)
+    drag_all = np.concatenate([np.ravel(np.array(sl["trim_max_real_eig"], float)) for sl in slices.values()])
+    drag_all = drag_all[np.isfinite(drag_all)]
+    # one scale for both slices, so the same colour is the same damping
+    lim = float(np.abs(drag_all).max()) if drag_all.size and np.abs(drag_all).max() > 0 else 1.0
+    for row, sl in enumerate(slices.values()):
+        ax = axes[row, 0]
+        hz = np.array(sl["reduced_slowest_tilt_hz"], float)
+        grows = np.array(sl["reduced_max_real_eig"], float)
+        cmap = matplotlib.colormaps["viridis"].copy()
+        cmap.set_bad("lightgrey")
+        finite = hz[np.isfinite(hz)]
+        im = ax.imshow(np.ma.masked_invalid(hz), origin="lower", extent=extent, cmap=cmap, aspect="auto",
+                       vmin=float(finite.min()) if finite.size else 0.0,
+                       vmax=float(finite.max()) if finite.size and finite.max() > finite.min() else None)
+        scale = np.nanmax(np.abs(grows)) if np.isfinite(grows).any() else 1.0
+        unstable = np.isfinite(grows) & (grows > result.get("spectral_tolerance", 1e-6) * max(1.0, scale))
+        handles = [Patch(facecolor="lightgrey", label=NO_EQUILIBRIUM)]
+        if unstable.any():
+            for i, j in zip(*np.nonzero(unstable)):
+                ax.add_patch(Rectangle((axis[j] - step / 2, axis[i] - step / 2), step, step, fill=False,
+                                       hatch="xx", lw=0.0))
+            handles.append(Patch(facecolor="none", hatch="xx", label="unstable: a real part > 0"))
+        ax.set_xlabel(sl["x_label"])
+        ax.set_ylabel(sl["y_label"])
+        ax.set_title("%s\nno drag (reduced model, ch. 3), straight fall at %g m/s"
+                     % (sl["title"], result["v3_reduced"]), fontsize=9)
+        fig.colorbar(im, ax=ax, label="slowest tilt oscillation (Hz)")
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
+
+        ax = axes[row, 1]
+        drag = np.array(sl["trim_max_real_eig"], float)
+        cmap = matplotlib.colormaps["RdBu_r"].copy()
+        cmap.set_bad("lightgrey")
+        im = ax.imshow(np.ma.masked_invalid(drag), origin="lower", extent=extent, cmap=cmap, aspect="auto",
+                       norm=TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim))
+        ax.set_xlabel(sl["x_label"])
+        ax.set_ylabel(sl["y_label"])
+        ax.set_title("%s\nwith drag, the settled descent (neutral spin left out)" % sl["title"], fontsize=9)
+        fig.colorbar(im, ax=ax, label="largest real part of the eigenvalues (1/s)\nred: unstable, blue: damped")
+        ax.legend(handles=[Patch(facecolor="lightgrey", label=NO_TRIM)], loc="upper center",
+                  bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
     fig.suptitle("RoboRay stability over wing configurations")
     fig.tight_layout()
+    return fig
+
+
+def plot(result: dict, path: str) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = figure(result)
     fig.savefig(path, dpi=90)
     plt.close(fig)

@@ -7,6 +7,7 @@ import argparse
 
 import numpy as np
 
+from roboray.sim import progress
 from roboray.sim.commands.dynamics import add_vehicle_options, vehicle_params, wings_deg
 from roboray.tools.cli import CliError, UsageError, add_json, command, emit, number, output_file, positive
 
@@ -124,7 +125,9 @@ def do_modes(args: argparse.Namespace) -> None:
 def do_envelope(args: argparse.Namespace) -> None:
     from roboray.sim.analysis import envelope
 
-    result = envelope.search(vehicle_params(args), step_deg=args.step, settle_s=args.settle, refine=not args.no_refine)
+    with progress.bar(args, envelope.search_cost(args.step, args.settle, not args.no_refine), "envelope") as bar:
+        result = envelope.search(vehicle_params(args), step_deg=args.step, settle_s=args.settle,
+                                 refine=not args.no_refine, progress=bar)
     candidates = result.pop("candidates")
     if args.plot:
         _plot_envelope(candidates, result, args.plot)
@@ -172,7 +175,8 @@ def _plot_envelope(candidates, result, path):
 def do_stability_map(args: argparse.Namespace) -> None:
     from roboray.sim.analysis import stability_map
 
-    result = stability_map.compute(vehicle_params(args), step_deg=args.step, settle_s=args.settle)
+    with progress.bar(args, stability_map.compute_cost(args.step, args.settle), "stability-map") as bar:
+        result = stability_map.compute(vehicle_params(args), step_deg=args.step, settle_s=args.settle, progress=bar)
     stability_map.plot(result, args.out)
     result["plot"] = args.out
     summary = {}

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from roboray.sim import progress
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, floats, number, output_file, positive
 
 #: Heap bytes a cascade step may allocate on MicroPython (issue 7).
@@ -151,7 +152,8 @@ def do_montecarlo(args: argparse.Namespace) -> None:
     specs = F.plan(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
                    controller=args.controller, truth=args.truth)
     start = time.perf_counter()
-    results = F.run_all(specs, workers=workers)
+    with progress.bar(args, len(specs), "montecarlo", unit="flights") as bar:
+        results = F.run_all(specs, workers=workers, done=bar.update)
     result = F.summary(results)
     result.update(workers=workers, wall_time_s=time.perf_counter() - start, depth_m=args.depth,
                   distance_m=args.distance, controller=args.controller, model_error=F.MODEL_ERROR,
@@ -161,8 +163,10 @@ def do_montecarlo(args: argparse.Namespace) -> None:
     if args.runs_out:
         import json
 
+        from roboray.tools.jsonround import rounded
+
         with open(args.runs_out, "w") as f:
-            json.dump(results, f, indent=1, default=float)
+            json.dump(rounded(results), f, indent=1, default=float)
         result["runs_file"] = args.runs_out
     if args.plot:
         _plot_landings(results, args.plot, result)
@@ -220,10 +224,16 @@ def do_thesis_control(args: argparse.Namespace) -> None:
     from roboray.sim import flight as F
 
     start = time.perf_counter()
-    uncontrolled = F.thesis_run(0.5, control=False, duration=args.duration)
-    run1 = F.thesis_run(0.5, duration=args.duration)
-    still = F.thesis_run(0.0, control=False, duration=args.duration)
-    runs2 = {kv2: F.thesis_run(0.0, kv2=kv2, duration=args.duration) for kv2 in args.kv2}
+    with progress.bar(args, 3 + len(args.kv2), "thesis-control", unit="runs") as bar:
+        def thesis(spin: float, **kw):
+            out = F.thesis_run(spin, duration=args.duration, **kw)
+            bar.update(1)
+            return out
+
+        uncontrolled = thesis(0.5, control=False)
+        run1 = thesis(0.5)
+        still = thesis(0.0, control=False)
+        runs2 = {kv2: thesis(0.0, kv2=kv2) for kv2 in args.kv2}
 
     def moved(run, base) -> dict:
         d = run["position"][-1] - base["position"][-1]
@@ -302,7 +312,16 @@ def _plot_thesis(path: str, uncontrolled, run1, still, runs2) -> None:
 def do_bench_control(args: argparse.Namespace) -> None:
     from roboray.sim import flight as F
 
-    result = F.micropython_costs(steps=args.steps)
+    parts = ["MicroPython"] + list(F.BENCH_FLIGHTS) + ["backstepping", ""]
+    upcoming = iter(parts[1:])
+    with progress.bar(args, len(parts) - 1, "bench control") as bar:
+        bar.set_postfix_str(parts[0])
+
+        def done(part: str) -> None:
+            bar.set_postfix_str(next(upcoming), refresh=False)   # what runs next
+            bar.update(1)
+
+        result = F.micropython_costs(steps=args.steps, done=done)
     result["limit_bytes"] = STEP_HEAP_LIMIT
     result["within_limit"] = bool(result["cascade"]["heap_bytes_per_step"] <= STEP_HEAP_LIMIT)
     emit(args, result, _bench_text)

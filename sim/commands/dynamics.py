@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from roboray.sim import progress
 from roboray.tools.cli import CliError, add_json, command, emit, floats, number, output_file, positive
 
 
@@ -145,23 +146,38 @@ def write_csv(path: str, run) -> None:
 
 
 # ------------------------------------------------------------ bench
+#: Seconds of one core each part takes at dt 0.01 s: the progress bar's weights.
+COST_LOAD_S = 1.0           #: loading the compiled kernels
+COST_SINGLE_S = 5e-3        #: a simulated second of one vehicle
+COST_BATCH_S = 3e-3         #: a simulated second of a vehicle in a batch
+
+
 def do_bench_dynamics(args: argparse.Namespace) -> None:
     from roboray.sim.dynamics import Model, quat_from_axis_angle
     from roboray.sim.simulate import simulate
 
     dt = args.dt
-    single = Model(None)
-    wings = np.radians([45.0, 30.0, 60.0, 20.0])
-    x0 = single.state(attitude=quat_from_axis_angle([0, 1, 0], 0.17), velocity=(0.05, 0, 0.3), wings=wings)
-    t0 = time.perf_counter()
-    simulate(single, x0, 1.0, dt=dt)            # compile or load the kernels
-    warm = time.perf_counter() - t0
-    run = simulate(single, x0, args.duration, dt=dt)
-    batch = Model(None, n=args.batch)
-    xb = np.repeat(x0, args.batch, axis=0)
-    every = max(1, int(round(args.batch_record / dt)))
-    simulate(batch, xb, 2 * dt * every, dt=dt, record_every=every)
-    brun = simulate(batch, xb, args.batch_duration, dt=dt, record_every=every)
+    steps = 0.01 / dt
+    single_cost = COST_SINGLE_S * args.duration * steps
+    batch_cost = COST_BATCH_S * args.batch * args.batch_duration * steps
+    with progress.bar(args, COST_LOAD_S + single_cost + batch_cost, "bench dynamics") as bar:
+        single = Model(None)
+        wings = np.radians([45.0, 30.0, 60.0, 20.0])
+        x0 = single.state(attitude=quat_from_axis_angle([0, 1, 0], 0.17), velocity=(0.05, 0, 0.3), wings=wings)
+        t0 = time.perf_counter()
+        simulate(single, x0, 1.0, dt=dt)            # compile or load the kernels
+        warm = time.perf_counter() - t0
+        bar.update(COST_LOAD_S)
+        bar.set_postfix_str("one vehicle")
+        run = simulate(single, x0, args.duration, dt=dt)
+        bar.update(single_cost)
+        bar.set_postfix_str("a batch of %d" % args.batch)
+        batch = Model(None, n=args.batch)
+        xb = np.repeat(x0, args.batch, axis=0)
+        every = max(1, int(round(args.batch_record / dt)))
+        simulate(batch, xb, 2 * dt * every, dt=dt, record_every=every)
+        brun = simulate(batch, xb, args.batch_duration, dt=dt, record_every=every)
+        bar.update(batch_cost)
     result = {
         "integrator": "rk4 (servo solved exactly over each step)",
         "dt_s": dt,

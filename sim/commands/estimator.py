@@ -8,9 +8,16 @@ import logging
 
 import numpy as np
 
+from roboray.sim import progress
 from roboray.tools.cli import UsageError, add_json, command, emit, output_file
 
 log = logging.getLogger("roboray.sim.estimator")
+
+#: What the steps cost against one seed's truth, sensors and estimator
+#: (measured with --seeds 1 and without --no-micropython / with
+#: --compare-attitude): the weights of the progress bar.
+COST_MEKF_RUN = 0.1
+COST_MICROPYTHON = 0.45
 
 #: Targets of issue 6, averaged over the seeds.
 TARGETS = {
@@ -47,30 +54,38 @@ def do_bench_estimator(args: argparse.Namespace) -> None:
     per_seed = []
     mekf_seed = []
     first = None
-    for seed in seeds:
-        log.info("seed %d: truth, sensors, estimator", seed)
-        truth = estimation.standard_truth(seed, args.source)
-        logs = estimation.simulate_sensors(truth, seed)
-        t_ticks, calls = estimation.schedule(truth, logs)
-        config = estimation.estimator_config(logs, truth)
-        est = estimation.run(config, calls, t_ticks)
-        scores = estimation.score(truth, est)
-        scores["seed"] = seed
-        per_seed.append(scores)
+    micropython = 0.0 if args.no_micropython else COST_MICROPYTHON * (2 if args.compare_attitude else 1)
+    total = len(seeds) * (1 + (COST_MEKF_RUN if args.compare_attitude else 0.0)) + micropython
+    with progress.bar(args, total, "bench estimator") as bar:
+        for seed in seeds:
+            bar.set_postfix_str("seed %d" % seed)
+            log.info("seed %d: truth, sensors, estimator", seed)
+            truth = estimation.standard_truth(seed, args.source)
+            logs = estimation.simulate_sensors(truth, seed)
+            t_ticks, calls = estimation.schedule(truth, logs)
+            config = estimation.estimator_config(logs, truth)
+            est = estimation.run(config, calls, t_ticks)
+            scores = estimation.score(truth, est)
+            scores["seed"] = seed
+            per_seed.append(scores)
+            bar.update(1)
+            if args.compare_attitude:
+                mekf = dict(config, attitude_filter="mekf")
+                mekf_seed.append(estimation.score(truth, estimation.run(mekf, calls, t_ticks)))
+                bar.update(COST_MEKF_RUN)
+            if first is None:
+                first = (truth, logs, est, config, calls)
+        keys = [k for k in per_seed[0] if k != "seed"]
+        result: dict = {k: float(np.mean([s[k] for s in per_seed])) for k in keys}
+        result.update(seeds=seeds, source=args.source, per_seed=per_seed)
+        assert first is not None
+        if not args.no_micropython:
+            bar.set_postfix_str("MicroPython")
+            log.info("MicroPython: cost of a step")
+            result.update(estimation.micropython_costs(first[3], first[4]))
+            bar.update(COST_MICROPYTHON)
         if args.compare_attitude:
-            mekf = dict(config, attitude_filter="mekf")
-            mekf_seed.append(estimation.score(truth, estimation.run(mekf, calls, t_ticks)))
-        if first is None:
-            first = (truth, logs, est, config, calls)
-    keys = [k for k in per_seed[0] if k != "seed"]
-    result: dict = {k: float(np.mean([s[k] for s in per_seed])) for k in keys}
-    result.update(seeds=seeds, source=args.source, per_seed=per_seed)
-    assert first is not None
-    if not args.no_micropython:
-        log.info("MicroPython: cost of a step")
-        result.update(estimation.micropython_costs(first[3], first[4]))
-    if args.compare_attitude:
-        result["attitude_filters"] = _compare(args, result, mekf_seed, first, estimation)
+            result["attitude_filters"] = _compare(args, result, mekf_seed, first, estimation, bar)
     result["targets"] = TARGETS
     result["meets_targets"] = all(result[k] <= v for k, v in TARGETS.items() if k in result)
     if args.plot:
@@ -79,7 +94,7 @@ def do_bench_estimator(args: argparse.Namespace) -> None:
     emit(args, result, _text)
 
 
-def _compare(args, result: dict, mekf_seed: list, first, estimation) -> dict:
+def _compare(args, result: dict, mekf_seed: list, first, estimation, bar=progress.QUIET) -> dict:
     """The Mahony filter the estimator flies against a multiplicative EKF
     (``shared/estimator/mekf.py``) in the same estimator: accuracy on the
     same seeds and, unless --no-micropython, floats a step."""
@@ -90,8 +105,10 @@ def _compare(args, result: dict, mekf_seed: list, first, estimation) -> dict:
     if not args.no_micropython:
         out["mahony"]["boxed_floats_per_step"] = result["boxed_floats_per_step"]
         out["mahony"]["by_job"] = {k: v["boxed_floats"] for k, v in result["by_job"].items()}
+        bar.set_postfix_str("MicroPython, MEKF")
         log.info("MicroPython: cost of a step with the MEKF")
         costs = estimation.micropython_costs(dict(first[3], attitude_filter="mekf"), first[4])
+        bar.update(COST_MICROPYTHON)
         out["mekf"]["boxed_floats_per_step"] = costs["boxed_floats_per_step"]
         out["mekf"]["by_job"] = {k: v["boxed_floats"] for k, v in costs["by_job"].items()}
         out["mekf"]["estimated_board_ms_per_step"] = costs["estimated_board_ms_per_step"]

@@ -29,6 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from roboray.sim import progress
 from roboray.tools.cli import CliError, add_json, command, emit
 
 _WIPE = """
@@ -109,24 +110,32 @@ def do_bench_flash(args: argparse.Namespace) -> None:
             edited.write_text(text)
             build(out, source=args.source, src_root=src)
 
-        with VirtualBoard(fs_dir=work / "fs") as vb:
+        with VirtualBoard(fs_dir=work / "fs") as vb, \
+                progress.bar(args, 6 * args.repeat, "bench flash", "copies") as bar:
             cp = mpremote + ["connect", vb.device, "fs", "cp", "-r", "lib", "main.py", ":"]
             dep = flash + ["--port", vb.device]
+
+            def timed(cmd: list[str], tool: str, case: str, cwd: Path | None = None) -> tuple[float, str]:
+                bar.set_postfix_str("%s, %s" % (tool, case))
+                out = _timed(cmd, cwd=cwd)
+                bar.update(1)
+                return out
+
             for _ in range(args.repeat):
                 _wipe(vb.device)
-                record("full", "mpremote", _timed(cp, cwd=b.board_dir)[0])
-                record("unchanged", "mpremote", _timed(cp, cwd=b.board_dir)[0])
+                record("full", "mpremote", timed(cp, "mpremote", "full", cwd=b.board_dir)[0])
+                record("unchanged", "mpremote", timed(cp, "mpremote", "unchanged", cwd=b.board_dir)[0])
                 rebuild(original + "\n_BENCH_EDIT = 1\n")
-                record("one_changed", "mpremote", _timed(cp, cwd=b.board_dir)[0])
+                record("one_changed", "mpremote", timed(cp, "mpremote", "one changed", cwd=b.board_dir)[0])
                 rebuild(original)
 
                 _wipe(vb.device)
                 for case in ("full", "unchanged"):
-                    seconds, text = _timed(dep)
+                    seconds, text = timed(dep, "roboray-flash", case)
                     record(case, "roboray_flash", seconds)
                     sent[case] = json.loads(text)["bytes_sent"]
                 rebuild(original + "\n_BENCH_EDIT = 1\n")
-                seconds, text = _timed(dep)
+                seconds, text = timed(dep, "roboray-flash", "one changed")
                 record("one_changed", "roboray_flash", seconds)
                 sent["one_changed"] = json.loads(text)["bytes_sent"]
                 rebuild(original)

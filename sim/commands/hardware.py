@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 
+from roboray.sim import progress
 from roboray.tools.cli import add_json, command, emit
 
 #: Quoted cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (the emulated
@@ -120,13 +121,16 @@ def do_bench_drivers(args: argparse.Namespace) -> None:
     from roboray.sim import twin
 
     n = args.calls
-    with twin.interpreter() as mp:
+    # one weight a part: the interpreter's start, each task, the loop
+    with progress.bar(args, len(_CALLS) + 2, "bench drivers") as bar, twin.interpreter() as mp:
         mp.exec(_SETUP)
         mul_us = _wall_us(mp, "mul_loop(10000)", 20) / 10000.0
         slowdown = RP2350_US_PER_MUL / mul_us
         step_us = _wall_us(mp, "vclock.advance(10000)", n)
+        bar.update(1)
         tasks = {}
         for name, call, hardware, transfers in _CALLS:
+            bar.set_postfix_str(name)
             # the driver's own: the emulated parts' work (the FIFO's batching)
             # is done by the hardware accesses alone too, and taken off
             heap = mp.alloc_bytes("vclock.advance(10000); %s" % call)
@@ -138,6 +142,8 @@ def do_bench_drivers(args: argparse.Namespace) -> None:
                            "us": round(us, 2), "emulation_us": round(emu, 2),
                            "i2c_us": round(bus, 1),
                            "board_us": round(max(us - emu, 0.0) * slowdown + bus, 1)}
+            bar.update(1)
+        bar.set_postfix_str("the loop")
         slots = args.slots
         mp.exec("gc.collect()\ngc.disable()\n_a0 = gc.mem_alloc()\nv.sched.run(%d)\n"
                 "_a1 = gc.mem_alloc()\ngc.enable()" % slots)
@@ -156,6 +162,7 @@ def do_bench_drivers(args: argparse.Namespace) -> None:
             "sensors_healthy": mp.eval("[v.imu.health.healthy(), v.mag.health.healthy(), "
                                        "v.depth.health.healthy(), v.battery.health.healthy()]"),
         }
+        bar.update(1)
 
     def text(r: dict) -> str:
         lines = ["%-22s %7s %10s %10s %8s %12s" % ("task", "heap B", "us (here)", "emulation", "I2C us",

@@ -35,6 +35,7 @@ import random
 import struct
 import time
 
+from roboray.sim import progress
 from roboray.tools.cli import add_json, command, emit
 
 #: RP2350 slowdown against the WebAssembly port (float-heavy code, see above).
@@ -136,14 +137,19 @@ def __all():
 """
 
 
-def _fuzz(n_inputs: int) -> dict:
+def _fuzz(n_inputs: int, done=lambda share: None) -> dict:
+    """The fuzz's counts; ``done(share)`` as each fifth, two fifths, two
+    fifths of the work ends (building, parsing with the key, without)."""
     from roboray.shared.mavlink.parser import Parser
     from roboray.sim import mavlink_fuzz as F
 
     fz = F.build(n_inputs)
+    done(0.2)
     bounds = F.chunks(len(fz.data))
     keyed = F.account(fz, F.run(Parser(F.receiver()), fz.data, bounds))
+    done(0.4)
     plain = F.account(fz, F.run(Parser(), fz.data, bounds))
+    done(0.4)
     return {
         "fuzz_inputs": n_inputs,
         "fuzz_good_frames": keyed["good_frames"],
@@ -239,14 +245,33 @@ def _rp2350(plain: bytes) -> dict:
     return result
 
 
+#: Seconds of one core each step takes here: the progress bar's weights.
+COST_PARSE_S = 3e-5      #: a frame through both parsers, once
+COST_FUZZ_S = 9e-5       #: a fuzzed input: built, then parsed with and without the key
+COST_RP2350_S = 60.0     #: the emulated RP2350's count (QEMU)
+COST_MICROPYTHON_S = 5.0
+
+
 def do_bench_mavlink(args: argparse.Namespace) -> None:
+    parse = COST_PARSE_S * args.frames * (1 + args.repeat)
+    fuzz = COST_FUZZ_S * args.fuzz
+    total = (parse + fuzz + (COST_RP2350_S if args.rp2350 else 0.0)
+             + (0.0 if args.no_micropython else COST_MICROPYTHON_S))
+    with progress.bar(args, total, "bench mavlink") as bar:
+        result = _bench(args, bar, parse, fuzz)
+    emit(args, result)
+
+
+def _bench(args: argparse.Namespace, bar, parse: float, fuzz: float) -> dict:
     from roboray.shared.mavlink import messages as M
     from roboray.shared.mavlink.frame import Writer
 
+    bar.set_postfix_str("parsing")
     data = _stream(args.frames)
     assert _ours(data, args.chunk) == _pymavlink(data, args.chunk) == args.frames
     t_ours = _best(lambda: _ours(data, args.chunk), args.repeat)
     t_pym = _best(lambda: _pymavlink(data, args.chunk), args.repeat)
+    bar.update(parse)
 
     w = Writer(1, 1)
     fmt, buf, off = M.ATTITUDE_FMT, w.buf, w.payload
@@ -268,10 +293,14 @@ def do_bench_mavlink(args: argparse.Namespace) -> None:
         "parse_speed_ratio": t_pym / t_ours,
     }
     if args.fuzz:
-        result.update(_fuzz(args.fuzz))
+        bar.set_postfix_str("fuzzing")
+        result.update(_fuzz(args.fuzz, lambda share: bar.update(share * fuzz)))
     if args.rp2350:
+        bar.set_postfix_str("RP2350 (QEMU)")
         result.update(_rp2350(data[:20000]))
+        bar.update(COST_RP2350_S)
     if not args.no_micropython:
+        bar.set_postfix_str("MicroPython")
         from roboray.tools.micropython import MicroPython
 
         with MicroPython() as mp:
@@ -292,7 +321,8 @@ def do_bench_mavlink(args: argparse.Namespace) -> None:
                 "micropython_us_per_frame": us / n_mp,
                 "rp2350_us_per_byte_estimate": us / nbytes * RP2350_FACTOR,
             })
-    emit(args, result)
+        bar.update(COST_MICROPYTHON_S)
+    return result
 
 
 def register(sub, bench) -> None:
