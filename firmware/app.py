@@ -18,7 +18,7 @@
    controller of ``shared/control`` when the firmware has one) and
    ``Resume`` (the dive's state in the watchdog's scratch words and on
    flash, ``STATE_FILE`` beside the parameters: a dive survives a reset);
-5. starts the watchdog and runs the scheduler with eight tasks:
+5. starts the watchdog and runs the scheduler with nine tasks:
 
    ========  ======  ======================================================
    task      period  work
@@ -33,6 +33,9 @@
    leak      50 ms   leak probe, debounced
    battery   100 ms  pack voltage, filtered
    params    1 s     saves the parameters when they changed
+   log       20 ms   the flight log: records to RAM, to flash only when the
+                     vehicle is still or disarmed (phase 1;
+                     ``firmware/flightlog/``)
    gc        300 ms  ``gc.collect()``, a planned stall (phase 9: no control)
    ========  ======  ======================================================
 
@@ -75,6 +78,10 @@ from roboray.firmware import navigation as navigation_mod
 from roboray.firmware.failsafe import Failsafes
 from roboray.firmware.flash_record import FlashRecord
 from roboray.firmware.flight import Flight
+from roboray.firmware.flightlog import logger as flightlog_mod
+from roboray.firmware.flightlog.files import LogFiles
+from roboray.firmware.flightlog.logger import FlightLog
+from roboray.firmware.flightlog.transfer import LogTransfer
 from roboray.firmware.link import Link
 from roboray.firmware.navigation import Navigation
 from roboray.firmware.param_store import ParamStore
@@ -99,6 +106,7 @@ MAIN_MS = 10        # IMU read + estimator step (100 Hz)
 CONTROL_MS = 20     # controller (50 Hz)
 DEPTH_MS = 20       # MS5837 state machine: one conversion started per call
 RADIO_MS = 10
+LOG_MS = 20         # the flight log (50 Hz calls: ATT and IMU at 25 Hz, the rest slower)
 LEAK_MS = 50
 BATTERY_MS = 100
 PARAMS_MS = 1000    # saves the parameters when they changed
@@ -106,6 +114,9 @@ GC_MS = 300         # the collection (see the table above)
 #: The radio's unit of work at most on a Pico 2 (bench board: p99 1.6 ms,
 #: max 2.6 ms): less left in a slot and it waits for the next.
 LINK_BUDGET_US = 2600
+#: The log's unit of work at most on a Pico 2 (bench board: p99 1.6 ms; its
+#: flushes and a new log's start are planned stalls, announced).
+LOG_BUDGET_US = 1800
 GC_PHASE = 9
 #: What a collection may take on a Pico 2 (measured 42 ms for the firmware
 #: alone, up to 76 ms in the twin, whose own objects share the heap), with
@@ -120,7 +131,7 @@ STATE_FILE = "dive.bin"
 #: Every parameter the application declares: the shared ones, the drivers',
 #: navigation's, the failsafes' and the controller's.
 PARAMS = (param_defs.PARAMS + servo_mod.PARAMS + battery_mod.PARAMS + navigation_mod.PARAMS
-          + failsafe_mod.PARAMS + (getattr(control_mod, "PARAMS", ()) if control_mod is not None else ()))
+          + failsafe_mod.PARAMS + flightlog_mod.PARAMS + (getattr(control_mod, "PARAMS", ()) if control_mod is not None else ()))
 
 #: The running vehicle (set by ``main()``), for the REPL and the twin.
 vehicle = None
@@ -195,6 +206,7 @@ class Vehicle:
         self.controller = None
         self.reporter = None
         self.resume = None
+        self.log = None
         self.problems = []
         self.warnings = []
 
@@ -284,9 +296,15 @@ class Vehicle:
         self.resume = Resume(nav, modes, t, link.ep, self.params, scratch_of(m) if scratch_of else None,
                              record, cause, self.clock)
         print(self.resume.describe())
+        # the flight log beside the parameters: /logs on the board
+        files = LogFiles(self.store.fs, root=path[:path.rfind("/")] + "/logs")
+        self.log = FlightLog(self.params, t, files, self.clock.ticks_us, self.clock.ticks_diff,
+                             refresh=reporter.refresh, fixes=link.ep)
+        link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased)
+        link.ep.on_text = self.log.msg
 
     def build_loop(self, reset_cause=0):
-        """The scheduler with the vehicle's eight tasks."""
+        """The scheduler with the vehicle's nine tasks."""
         s = Scheduler(self.clock, MAIN_MS, reset_cause=reset_cause, collect=False)
         s.add("nav", self.nav.step, MAIN_MS)
         # control right after the estimate it uses; the radio after both,
@@ -298,13 +316,28 @@ class Vehicle:
         s.add("leak", self.leak.update, LEAK_MS, phase=3)
         s.add("battery", self.battery.update, BATTERY_MS, phase=5)
         s.add("params", self.store.service, PARAMS_MS, phase=7)
+        # the log in the odd slots, away from the controller's even ones,
+        # on a budget: a slot that nav, depth and the radio filled passes it
+        # to the next (its records are of this slot's state: none is lost)
+        s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_BUDGET_US)
         s.add("gc", self.collect, GC_MS, phase=GC_PHASE)
         self.sched = s
         self.store.expect_delay = s.expect_delay_ms
         self.resume.record.expect_delay = s.expect_delay_ms
         self.failsafes.sched = s
         self.reporter.sched = s
+        self.log.expect_delay = s.expect_delay_ms
+        self.log.sched = s
+        self.link.ep.logs.expect_delay = s.expect_delay_ms
         return s
+
+    def _armed(self):
+        return self.modes.armed
+
+    def log_step(self):
+        """The flight log's task: records to RAM, to flash when harmless."""
+        m = self.modes
+        self.log.step(m.armed, m.mode)
 
     def control(self):
         """The control task: the flight step, then the dive's state kept

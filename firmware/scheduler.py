@@ -198,10 +198,10 @@ class Scheduler:
 
     def expect_delay_ms(self, ms):
         """The running task is about to stall the chip for up to ``ms``: a
-        slot late by no more than that is a stall, not an overrun."""
-        us = ms * 1000
-        if us > self._expect_us:
-            self._expect_us = us
+        slot late by no more than that is a stall, not an overrun. Stalls
+        announced in one slot add up (a log chunk and a collection in the
+        same slot take the time of both)."""
+        self._expect_us += ms * 1000
 
     def index(self, name):
         """Index of task ``name`` (for its counters), -1 if none."""

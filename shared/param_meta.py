@@ -34,6 +34,7 @@ UNITS = {
     "Pa": "pascal",
     "mGauss": "milligauss",
     "PWM": "PWM in microseconds",
+    "kB": "kilobytes",
 }
 
 #: A failsafe's action (firmware/failsafe.py ACTIONS).
@@ -172,3 +173,14 @@ _p("COMPASS_DEC", "Magnetic declination", "rad", "Magnetic declination at the di
 _p("VISO_DELAY_MS", "Position fix delay", "ms",
    "Time from a position fix's measurement to its arrival at the vehicle (tracker plus radio).",
    user="Advanced")
+
+# ---------------------------------------------------------------- flight log
+_p("LOG_BITMASK", "Log bitmask", "",
+   "Which periodic records the on-board log keeps (events, modes, texts and parameters always): "
+   "bit 0 ATT, 1 IMU, 2 MAG, 3 BARO, 4 RCOU and WING, 5 EST, 6 PM, 7 FIX.")
+_p("LOG_FILE_BUFSIZE", "Log buffer size", "kB",
+   "RAM the dive is logged into before it goes to flash (only while the vehicle is still or disarmed): "
+   "64 kB holds ~18 s at full rate and ~16 s more thinned. Every kB adds to each collection's time.",
+   user="Advanced")
+_p("LOG_DISARMED", "Log while disarmed", "", "Keep a log while disarmed too, not only from arming to disarming.",
+   ENABLED)

@@ -13,10 +13,10 @@ import pytest
 from roboray.sim.twin.runner import Options, run
 from roboray.shared.modes import NAMES
 
-#: Seven tasks at a few hundred us each and a 1 ms collection (the
+#: Eight tasks at a few hundred us each and a 1 ms collection (the
 #: application's "gc" task, every 300 ms): a light loop.
 LIGHT = {"tasks": {name: [300] * len(NAMES) for name in
-                   ("nav", "link", "depth", "control", "leak", "battery", "params")}, "gc_us": 0}
+                   ("nav", "link", "depth", "control", "leak", "battery", "params", "log")}, "gc_us": 0}
 LIGHT["tasks"]["gc"] = [1000] * len(NAMES)
 
 

@@ -89,7 +89,7 @@ def test_complete_board_runs_the_loop_with_the_driver_tasks(mp):
     rc, lines = start(mp, cycles=300)
     assert rc == 0
     assert lines[:2] == ["RoboRay firmware unknown unknown", "reset cause: PWRON_RESET"]
-    assert "running: 8 tasks, loop 100 Hz" in lines
+    assert "running: 9 tasks, loop 100 Hz" in lines
     assert not any(ln.startswith(("MISSING", "WARNING")) for ln in lines)
     assert mp.eval("t.wdt_feeds") == 300 and mp.eval("t.wdt_expired()") is False
     assert mp.eval("pulses()") == [1000] * 4

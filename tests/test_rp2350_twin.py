@@ -25,7 +25,7 @@ def fly(**kw):
 def test_the_firmware_boots_and_its_loop_takes_board_time():
     r = fly()
     assert r["interpreter"].startswith("rp2350-emu 1.29")
-    assert r["console"][0] == r["firmware"] and "running: 8 tasks, loop 100 Hz" in r["console"]
+    assert r["console"][0] == r["firmware"] and "running: 9 tasks, loop 100 Hz" in r["console"]
     assert [m for _, m in r["modes"]] == ["PASSIVE"] and [a for _, a in r["arming"]] == ["disarmed", "armed"]
     assert r["crashes"] == 0 and r["resets"] == 0 and r["task_errors"] == 0
     bt = r["board_time"]

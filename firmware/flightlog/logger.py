@@ -42,14 +42,14 @@ WING    10 Hz   commanded wing angles (deg) [4]: the servos report no angle,
                 so the command is what is known
 EST     10 Hz   position, velocity (NED, m, m/s) and target [5]: the glide
                 settles in seconds
-PM       1 Hz   overruns, slots, longest slot, load, free heap, drops [6]
+PM       1 Hz   overruns, slots, longest slot, load, drops [6] (no free
+                heap: ``gc.mem_free()`` walks the whole heap, ~23 ms on a Pico 2)
 FIX     each    a position fix as it arrives: N, E, D, its age [7]
 MODE, MSG, EV, ERR, PARM  as they happen: modes, texts, arming and rest,
                 failsafes raised and cleared, every parameter at arming
 ======  ======  =============================================================
 """
 
-import gc
 import struct
 from array import array
 
@@ -77,7 +77,7 @@ BARO = Record(153, "BARO", "QBfff", "TimeUS,I,Alt,Press,Temp", "s#mPO", "F-000")
 RCOU = Record(154, "RCOU", "QHHHH", "TimeUS,C1,C2,C3,C4", "sYYYY", "F0000")
 WING = Record(155, "WING", "Qcccc", "TimeUS,Cmd1,Cmd2,Cmd3,Cmd4", "sdddd", "FBBBB")
 EST = Record(156, "EST", "Qffffffff", "TimeUS,PN,PE,PD,VN,VE,VD,TN,TE", "smmmnnnmm", "F00000000")
-PM = Record(157, "PM", "QHHIHIH", "TimeUS,NLon,NLoop,MaxT,Load,Mem,Drop", "s--s%b-", "F--FA0-")
+PM = Record(157, "PM", "QHHIHH", "TimeUS,NLon,NLoop,MaxT,Load,Drop", "s--s%-", "F--FA-")
 FIX = Record(158, "FIX", "QfffI", "TimeUS,N,E,D,Age", "smmms", "F000C")
 MODE = Record(159, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn", "s---", "F---")
 MSG = Record(160, "MSG", "QZ", "TimeUS,Message", "s-", "F-")
@@ -117,13 +117,14 @@ _THIN_FRACTION = const(4)      # thin out below a quarter free
 #: erase (45 ms), 16 page programs (6.4 ms), a close's metadata commit
 #: and, now and then, a metadata compaction (another erase).
 CHUNK_STALL_MS = const(110)
+#: Packing a new log's header and parameters (~130 records) in RAM: ~30 ms
+#: of the interpreter on a Pico 2 (bench board, the log task's max at arming).
+START_STALL_MS = const(60)
 #: A new log's creation: header and parameters (~6 kB: two sectors), two
 #: files created (the log, LASTLOG.TXT), old logs maybe removed.
 CREATE_STALL_MS = const(300)
 
 _DEG100 = 5729.5779513082    # rad -> centidegrees
-
-_mem_free = getattr(gc, "mem_free", None)   # MicroPython's; CPython has none: 0
 
 
 class FlightLog:
@@ -195,6 +196,8 @@ class FlightLog:
         if self.files.current and w.pending():
             self._drain()           # the last log's tail first: it is still
         w.clear()
+        if self.expect_delay is not None:
+            self.expect_delay(START_STALL_MS)
         self._now()
         if not w.header(RECORDS):
             return False
@@ -311,52 +314,61 @@ class FlightLog:
         self._flush(resting or not armed)
 
     def _records(self, n):
+        """The periodic records of call ``n`` (0-49), spread so that no call
+        packs more than two: ATT on even calls and IMU on odd ones (25 Hz
+        each), the 10 Hz records each on its own fifth of the calls."""
         t = self.t
         w = self.w
         mask = self.params.get_int(self._i_mask)
         thin = w.free() * _THIN_FRACTION < w.size
         refresh = self.refresh
         self._now()
-        fast = (n & 1) == 0 if not thin else n % 10 == 0
-        if fast and mask & (B_ATT | B_IMU):
-            if refresh is not None:
-                refresh(0)      # attitude and rates
-                refresh(2)      # sensors
-            if mask & B_ATT:
-                e = self._euler
-                quat.to_euler(e, t.q)
-                yaw = e[2] * _DEG100
-                if yaw < 0.0:
-                    yaw += 36000.0
-                o = w.reserve(ATT.length)
-                if o >= 0:
-                    struct.pack_into(ATT.pack, w.buf, o, HEAD1, HEAD2, ATT.type_id, w.t0, w.t1, w.t2, w.t3,
-                                     int(e[0] * _DEG100), int(e[1] * _DEG100), int(yaw))
-            if mask & B_IMU:
+        if not thin or n % 10 < 2:      # thinned: ATT and IMU at 5 Hz
+            if n & 1 == 0:
+                if mask & B_ATT:
+                    if refresh is not None:
+                        refresh(0)      # attitude and rates
+                    e = self._euler
+                    quat.to_euler(e, t.q)
+                    yaw = e[2] * _DEG100
+                    if yaw < 0.0:
+                        yaw += 36000.0
+                    o = w.reserve(ATT.length)
+                    if o >= 0:
+                        struct.pack_into(ATT.pack, w.buf, o, HEAD1, HEAD2, ATT.type_id, w.t0, w.t1, w.t2, w.t3,
+                                         int(e[0] * _DEG100), int(e[1] * _DEG100), int(yaw))
+            elif mask & B_IMU:
+                if refresh is not None:
+                    refresh(2)          # the IMU in body axes
                 m = t.imu
                 o = w.reserve(IMU.length)
                 if o >= 0:
                     struct.pack_into(IMU.pack, w.buf, o, HEAD1, HEAD2, IMU.type_id, w.t0, w.t1, w.t2, w.t3,
                                      0, m[3], m[4], m[5], m[0], m[1], m[2])
-        if n % 5 == 2:      # 10 Hz, away from the 25 Hz calls' even numbers where it can be
-            if refresh is not None:
-                refresh(1)      # position
-                refresh(3)      # servos
-                if not fast:
-                    refresh(2)
-            m = t.imu
+        k = n % 5
+        if k == 0:
             if mask & B_MAG and not thin:
+                if refresh is not None:
+                    refresh(2)
+                m = t.imu
                 o = w.reserve(MAG.length)
                 if o >= 0:
                     struct.pack_into(MAG.pack, w.buf, o, HEAD1, HEAD2, MAG.type_id, w.t0, w.t1, w.t2, w.t3,
                                      0, m[6], m[7], m[8])
+        elif k == 1:
             if mask & B_BARO:
+                if refresh is not None:
+                    refresh(1)          # position, and the depth
+                    refresh(2)          # pressure and temperature
                 env = t.env
                 o = w.reserve(BARO.length)
                 if o >= 0:
                     struct.pack_into(BARO.pack, w.buf, o, HEAD1, HEAD2, BARO.type_id, w.t0, w.t1, w.t2, w.t3,
                                      0, -env[0], env[1], env[2])
+        elif k == 2:
             if mask & B_SERVO and not thin:
+                if refresh is not None:
+                    refresh(3)          # servos
                 u = t.servo_us
                 o = w.reserve(RCOU.length)
                 if o >= 0:
@@ -367,7 +379,10 @@ class FlightLog:
                 if o >= 0:
                     struct.pack_into(WING.pack, w.buf, o, HEAD1, HEAD2, WING.type_id, w.t0, w.t1, w.t2, w.t3,
                                      int(s[0] * 100.0), int(s[1] * 100.0), int(s[2] * 100.0), int(s[3] * 100.0))
+        elif k == 3:
             if mask & B_EST:
+                if refresh is not None:
+                    refresh(1)
                 p = t.pos_ned
                 v = t.vel_ned
                 g = t.target_ned
@@ -375,7 +390,7 @@ class FlightLog:
                 if o >= 0:
                     struct.pack_into(EST.pack, w.buf, o, HEAD1, HEAD2, EST.type_id, w.t0, w.t1, w.t2, w.t3,
                                      p[0], p[1], p[2], v[0], v[1], v[2], g[0], g[1])
-        if n == 7 and mask & B_PM:     # 1 Hz
+        elif n == 9 and mask & B_PM:     # 1 Hz
             self._pm()
         # failsafes raised and cleared
         flags = t.failsafe_flags
@@ -413,7 +428,7 @@ class FlightLog:
         o = w.reserve(PM.length)
         if o >= 0:
             struct.pack_into(PM.pack, w.buf, o, HEAD1, HEAD2, PM.type_id, w.t0, w.t1, w.t2, w.t3,
-                             overruns & 0xFFFF, slots & 0xFFFF, max_us, load, _mem_free() if _mem_free else 0, w.dropped & 0xFFFF)
+                             overruns & 0xFFFF, slots & 0xFFFF, max_us, load, w.dropped & 0xFFFF)
 
     # ------------------------------------------------------------ flash
     def _flush(self, harmless):

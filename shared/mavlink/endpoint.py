@@ -336,6 +336,8 @@ class Endpoint:
         #: The log protocol (``firmware/flightlog/transfer.LogTransfer``), set by
         #: the firmware; None: LOG_* requests go unanswered.
         self.logs = None
+        #: ``on_text(text)``: every STATUSTEXT sent, for the flight log (MSG).
+        self.on_text = None
 
     # ------------------------------------------------------------- driving
     def update(self, now_ms):
@@ -887,6 +889,8 @@ class Endpoint:
         # O(i) on MicroPython (UTF-8), a 30-character text took ~6 ms so
         w = self.writer
         data = text.encode()
+        if self.on_text is not None:
+            self.on_text(data)
         n = len(data)
         if n <= _TEXT_LEN or w.mavlink1:
             struct.pack_into(msg.STATUSTEXT_FMT, w.buf, w.payload, severity, data, 0, 0)
