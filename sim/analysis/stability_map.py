@@ -134,8 +134,7 @@ def figure(result: dict):
         ax = axes[row, 0]
         hz = np.array(sl["reduced_slowest_tilt_hz"], float)
         grows = np.array(sl["reduced_max_real_eig"], float)
-        cmap = matplotlib.colormaps["viridis"].copy()
-        cmap.set_bad("lightgrey")
+        cmap = matplotlib.colormaps["viridis"].with_extremes(bad="lightgrey")
         finite = hz[np.isfinite(hz)]
         im = ax.imshow(np.ma.masked_invalid(hz), origin="lower", extent=extent, cmap=cmap, aspect="auto",
                        vmin=float(finite.min()) if finite.size else 0.0,
@@ -157,8 +156,7 @@ def figure(result: dict):
 
         ax = axes[row, 1]
         drag = np.array(sl["trim_max_real_eig"], float)
-        cmap = matplotlib.colormaps["RdBu_r"].copy()
-        cmap.set_bad("lightgrey")
+        cmap = matplotlib.colormaps["RdBu_r"].with_extremes(bad="lightgrey")
         im = ax.imshow(np.ma.masked_invalid(drag), origin="lower", extent=extent, cmap=cmap, aspect="auto",
                        norm=TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim))
         ax.set_xlabel(sl["x_label"])

@@ -163,7 +163,7 @@ def _plot_envelope(candidates, result, path):
                    marker=marker, facecolors="none", edgecolors="grey", label="%s family, unstable" % family)
     ax.scatter([result["descent_speed"]], [result["max_glide_ratio"]], marker="*", s=250, c="red",
                label="reachable glide %.3f" % result["max_glide_ratio"])
-    ax.set_xlabel("descent speed, m/s")
+    ax.set_xlabel("descent speed (m/s)")
     ax.set_ylabel("glide ratio (horizontal / vertical)")
     ax.set_title("Steady descents over wing configurations")
     ax.legend(fontsize=8)

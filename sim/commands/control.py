@@ -86,12 +86,23 @@ def _fly_text(r: dict) -> str:
 
 
 def plot_flight(flight, path: str, title: str | None = None) -> None:
+    """``flight_figure`` written to ``path``."""
+    import matplotlib.pyplot as plt
+
+    fig = flight_figure(flight, title)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def flight_figure(flight, title: str | None = None):
     """Top view with the target, depth, horizontal velocity with its set
-    point, and the wings, against time."""
+    point, and the wings, against time, as a matplotlib figure."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from roboray.sim.plots import WING_STYLES, WINGS
 
     spec = flight.spec
     t = flight.t
@@ -107,8 +118,8 @@ def plot_flight(flight, path: str, title: str | None = None) -> None:
         ax.plot([spec.target[1]], [spec.target[0]], "g+", ms=12)
     if flight.landing_position is not None:
         ax.plot([flight.landing_position[1]], [flight.landing_position[0]], "rx", ms=10, label="landed")
-    ax.set_xlabel("east, m")
-    ax.set_ylabel("north, m")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(loc="best", fontsize=8)
     ax.grid(True, alpha=0.3)
@@ -116,7 +127,7 @@ def plot_flight(flight, path: str, title: str | None = None) -> None:
     ax.plot(t, flight.position[:, 2], label="depth")
     ax.axhline(spec.depth, color="k", lw=0.8, ls=":", label="bottom")
     ax.invert_yaxis()
-    ax.set_ylabel("depth, m")
+    ax.set_ylabel("depth (m)")
     ax.legend(loc="best", fontsize=8)
     ax = fig.add_subplot(grid[1, 1])
     ax.plot(t, flight.velocity[:, 0], label="v north")
@@ -124,13 +135,13 @@ def plot_flight(flight, path: str, title: str | None = None) -> None:
     if flight.setpoints.size:
         ax.plot(t, flight.setpoints[:, 0], "--", lw=0.8, color="C0", label="set point north")
         ax.plot(t, flight.setpoints[:, 1], "--", lw=0.8, color="C1", label="set point east")
-    ax.set_ylabel("m/s")
+    ax.set_ylabel("horizontal velocity (m/s)")
     ax.legend(loc="best", fontsize=8, ncol=2)
     ax = fig.add_subplot(grid[2, 1])
     for k in range(4):
-        ax.plot(t, np.degrees(flight.wings[:, k]), lw=1.0, label="s%d" % (k + 1))
-    ax.set_ylabel("wings, deg")
-    ax.set_xlabel("time since release, s")
+        ax.plot(t, np.degrees(flight.wings[:, k]), lw=1.0, ls=WING_STYLES[k], label=WINGS[k])
+    ax.set_ylabel("wing angle (deg)")
+    ax.set_xlabel("time since release (s)")
     ax.legend(loc="best", fontsize=8, ncol=4)
     m = flight.metrics
     if title is None:
@@ -139,8 +150,7 @@ def plot_flight(flight, path: str, title: str | None = None) -> None:
             title += ": landed %.2f m from the target" % m["landing_error_m"]
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    return fig
 
 
 # ------------------------------------------------------------ montecarlo
@@ -189,32 +199,46 @@ def _mc_text(r: dict) -> str:
     ] + (["plot: %s" % r["plot"]] if r.get("plot") else []))
 
 
-def _plot_landings(results: list, path: str, summary: dict) -> None:
-    """Landing points relative to their targets."""
+def landings_figure(results: list, summary: dict):
+    """Landing points relative to their targets, with the requirement (p95
+    within 0.5 m) and what these landings achieved, as a matplotlib figure."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 6))
+    east, north = [], []
     for r in results:
         if r.get("landing_position") is None:
             continue
         tn, te = r["target"]
-        ax.plot(r["landing_position"][1] - te, r["landing_position"][0] - tn, "b.", ms=5)
-    for radius, label in ((0.25, "0.25 m"), (0.5, "0.5 m")):
-        ax.add_patch(plt.Circle((0, 0), radius, fill=False, ls="--", label=label))
-    ax.plot([0], [0], "g+", ms=12)
+        east.append(r["landing_position"][1] - te)
+        north.append(r["landing_position"][0] - tn)
+    ax.plot(east, north, "b.", ms=5, label="landings (%d of %d runs)" % (len(east), len(results)))
+    ax.plot([0], [0], "g+", ms=12, mew=2, label="target")
+    ax.add_patch(plt.Circle((0, 0), 0.5, fill=False, ls="--", color="C3", label="required: p95 within 0.5 m"))
+    p95 = summary.get("landing_error_p95_m")
+    if p95:
+        ax.add_patch(plt.Circle((0, 0), p95, fill=False, ls=":", color="C0",
+                                label="p95 of these landings, %.3f m" % p95))
     ax.set_aspect("equal")
     lim = max(0.6, 1.1 * (summary["landing_error_worst_m"] or 0.6))
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
-    ax.set_xlabel("east of the target, m")
-    ax.set_ylabel("north of the target, m")
+    ax.set_xlabel("east of the target (m)")
+    ax.set_ylabel("north of the target (m)")
     ax.set_title("%d landings: p50 %.3f m, p95 %.3f m" % (summary["runs"], summary["landing_error_p50_m"] or 0.0,
-                                                          summary["landing_error_p95_m"] or 0.0))
+                                                          p95 or 0.0))
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
+    return fig
+
+
+def _plot_landings(results: list, path: str, summary: dict) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = landings_figure(results, summary)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
@@ -269,10 +293,21 @@ def _thesis_text(r: dict) -> str:
 
 
 def _plot_thesis(path: str, uncontrolled, run1, still, runs2) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = thesis_figure(uncontrolled, run1, still, runs2)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def thesis_figure(uncontrolled, run1, still, runs2):
+    """Sec. 5.2's runs (cf. figs. 5.12-5.15), as a matplotlib figure."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from roboray.sim.plots import WING_STYLES, WINGS
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     ax = axes[0, 0]
@@ -280,32 +315,31 @@ def _plot_thesis(path: str, uncontrolled, run1, still, runs2) -> None:
     ax.plot(uncontrolled["t"], uncontrolled["velocity"][:, 1], lw=0.8, label="east (+y_c), uncontrolled")
     ax.plot(run1["t"], run1["velocity"][:, 0], "--", lw=0.8, label="north, controlled")
     ax.plot(run1["t"], run1["velocity"][:, 1], "--", lw=0.8, label="east (+y_c), controlled")
-    ax.set_ylabel("m/s")
+    ax.set_ylabel("velocity (m/s)")
     ax.set_title("sec. 5.2.1: spin 0.5 rad/s, K = I (cf. fig. 5.12)", fontsize=9)
     ax.legend(fontsize=7)
     ax = axes[1, 0]
     for k in range(4):
-        ax.plot(run1["t"], np.degrees(run1["wings"][:, k]), lw=0.8, label="s%d" % (k + 1))
-    ax.set_ylabel("wings, deg (cf. fig. 5.13)")
-    ax.set_xlabel("time, s")
+        ax.plot(run1["t"], np.degrees(run1["wings"][:, k]), lw=0.8, ls=WING_STYLES[k], label=WINGS[k])
+    ax.set_ylabel("wing angle (deg), cf. fig. 5.13")
+    ax.set_xlabel("time (s)")
     ax.legend(fontsize=7, ncol=4)
     ax = axes[0, 1]
     ax.plot(still["t"], 0.3 * still["t"], "k:", lw=0.8, label="asked: 0.3 m/s along +y_c")
     for kv2, run in runs2.items():
         ax.plot(run["t"], run["position"][:, 1] - still["position"][:, 1], lw=1.0, label="K_v2 = %g" % kv2)
-    ax.set_ylabel("+y_c displacement, m")
+    ax.set_ylabel("+y_c displacement (m)")
     ax.set_title("sec. 5.2.2: no spin, K re-weighted (cf. fig. 5.14)", fontsize=9)
     ax.legend(fontsize=7)
     ax = axes[1, 1]
     for kv2, run in runs2.items():
-        ax.plot(run["t"], np.degrees(run["wings"][:, 1]), lw=0.8, label="s2, K_v2 = %g" % kv2)
-    ax.set_ylabel("wing 2, deg (cf. fig. 5.15)")
-    ax.set_xlabel("time, s")
+        ax.plot(run["t"], np.degrees(run["wings"][:, 1]), lw=0.8, label="wing 2, K_v2 = %g" % kv2)
+    ax.set_ylabel("wing 2 (deg), cf. fig. 5.15")
+    ax.set_xlabel("time (s)")
     ax.legend(fontsize=7)
     fig.suptitle("The thesis's backstepping controller in the model (true states)")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    return fig
 
 
 # --------------------------------------------------------- bench control

@@ -144,9 +144,13 @@ def _text(r: dict) -> str:
     return "\n".join(lines)
 
 
-def plot(path: str, truth, logs, est) -> None:
-    """Estimates against truth for one run: attitude, depth and vertical
-    speed, horizontal position with the fixes, and the errors."""
+def figure(truth, logs, est):
+    """Estimates against truth for one run, as a matplotlib figure: roll and
+    pitch, yaw (unwrapped, so a heading through 180 deg is no jump), the
+    attitude errors, depth and vertical speed, horizontal position with the
+    fixes, and the navigation errors. Errors start when the estimate is
+    first valid: before, the attitude filter is aligning from whatever it
+    started at (up to 180 deg off), which would set the scale."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -162,55 +166,78 @@ def plot(path: str, truth, logs, est) -> None:
     R = quaternion_to_matrix(q_true)
     roll = np.degrees(np.arctan2(R[:, 2, 1], R[:, 2, 2]))
     pitch = np.degrees(-np.arcsin(np.clip(R[:, 2, 0], -1, 1)))
-    yaw = np.degrees(np.arctan2(R[:, 1, 0], R[:, 0, 0]))
+    yaw_rad = np.arctan2(R[:, 1, 0], R[:, 0, 0])
+    yaw = np.degrees(np.unwrap(yaw_rad))
+    # the estimate drawn where its wrapped difference puts it, on the same turn as the truth
+    yaw_est = yaw + np.degrees(np.angle(np.exp(1j * (est.euler[:, 2] - yaw_rad))))
     pos = interpolate(truth.t, truth.position_ned, t)
     vel = interpolate(truth.t, truth.velocity_ned, t)
-    err = estimation.errors(truth, est, since=0.0)
-    fig, ax = plt.subplots(5, 1, figsize=(11, 15), sharex=True)
-    for k, (name, true) in enumerate((("roll", roll), ("pitch", pitch), ("yaw", yaw))):
+    valid = np.flatnonzero(est.status[:, 1] == 1)
+    t_valid = float(t[valid[0]]) if valid.size else float(t[0])
+    err = estimation.errors(truth, est, since=t_valid)
+    fig, ax = plt.subplots(6, 1, figsize=(11, 17), sharex=True)
+    for k, (name, true) in enumerate((("roll", roll), ("pitch", pitch))):
         line, = ax[0].plot(t, true, lw=1.0, label=name + " truth")
         ax[0].plot(t, np.degrees(est.euler[:, k]), "--", lw=1.0, color=line.get_color(), label=name + " estimate")
-    ax[0].set_ylabel("attitude, deg")
-    ax[0].legend(ncol=3, fontsize=8)
-    ax[1].plot(err["t"], np.degrees(err["attitude"]), lw=0.8, label="attitude error")
-    ax[1].plot(err["t"], np.degrees(err["tilt"]), lw=0.8, label="tilt error")
-    ax[1].plot(err["t"], np.degrees(err["heading"]), lw=0.8, label="heading error")
-    ax[1].set_ylabel("error, deg")
-    ax[1].legend(ncol=3, fontsize=8)
-    ax[2].plot(t, pos[:, 2], lw=1.0, label="depth truth")
-    ax[2].plot(t, est.nav[:, 0], "--", lw=1.0, label="depth estimate")
-    ax2 = ax[2].twinx()
+    ax[0].set_ylabel("roll, pitch (deg)")
+    ax[0].legend(ncol=2, fontsize=8)
+    ax[1].plot(t, yaw, lw=1.0, color="C2", label="yaw truth")
+    ax[1].plot(t, yaw_est, "--", lw=1.0, color="C3", label="yaw estimate")
+    ax[1].set_ylabel("yaw (deg, unwrapped)")
+    ax[1].legend(ncol=2, fontsize=8)
+    ax[2].plot(err["t"], np.degrees(err["attitude"]), lw=0.8, label="attitude error")
+    ax[2].plot(err["t"], np.degrees(err["tilt"]), lw=0.8, label="tilt error")
+    ax[2].plot(err["t"], np.degrees(np.abs(err["heading"])), lw=0.8, label="heading error (magnitude)")
+    ax[2].set_ylabel("attitude error (deg)")
+    ax[2].set_ylim(bottom=0.0)
+    ax[3].plot(t, pos[:, 2], lw=1.0, label="depth truth")
+    ax[3].plot(t, est.nav[:, 0], "--", lw=1.0, label="depth estimate")
+    ax2 = ax[3].twinx()
     ax2.plot(t, vel[:, 2], color="C2", lw=0.8, label="v_z truth")
     ax2.plot(t, est.nav[:, 1], "--", color="C3", lw=0.8, label="v_z estimate")
-    ax[2].set_ylabel("depth, m")
-    ax2.set_ylabel("v_z, m/s")
-    ax[2].invert_yaxis()
-    ax[2].legend(loc="upper left", fontsize=8)
-    ax2.legend(loc="lower right", fontsize=8)
+    ax[3].set_ylabel("depth (m)")
+    ax2.set_ylabel("v_z (m/s)")
+    ax[3].invert_yaxis()
+    lines, labels = ax[3].get_legend_handles_labels()
+    more = ax2.get_legend_handles_labels()
+    ax[3].legend(lines + more[0], labels + more[1], loc="lower center", ncol=4, fontsize=8)
     fx = logs.fixes
     for k, name in ((0, "north"), (1, "east")):
-        line, = ax[3].plot(t, pos[:, k], lw=1.0, label=name + " truth")
-        ax[3].plot(t, est.nav[:, 2 + k], "--", lw=1.0, color=line.get_color(), label=name + " estimate")
-        ax[3].plot(fx.t, fx.north if k == 0 else fx.east, ".", ms=3, color=line.get_color(),
+        line, = ax[4].plot(t, pos[:, k], lw=1.0, label=name + " truth")
+        ax[4].plot(t, est.nav[:, 2 + k], "--", lw=1.0, color=line.get_color(), label=name + " estimate")
+        ax[4].plot(fx.t, fx.north if k == 0 else fx.east, ".", ms=3, color=line.get_color(),
                    label=name + " fixes (at measurement time)")
-    ax[3].set_ylabel("position, m")
-    ax[3].legend(ncol=3, fontsize=8)
-    ax[4].plot(err["t"], 100 * err["depth"], lw=0.8, label="depth error, cm")
-    ax[4].plot(err["t"], 100 * err["vz"], lw=0.8, label="v_z error, cm/s")
-    ax[4].plot(err["t"], 100 * np.hypot(err["north"], err["east"]), lw=0.8, label="horizontal error, cm")
-    ax[4].set_ylabel("error")
-    ax[4].set_xlabel("time, s (released at %g s)" % estimation.HOLD_S)
+    ax[4].set_ylabel("position (m)")
     ax[4].legend(ncol=3, fontsize=8)
+    ax[5].plot(err["t"], 100 * err["depth"], lw=0.8, label="depth error (cm)")
+    ax[5].plot(err["t"], 100 * err["vz"], lw=0.8, label="v_z error (cm/s)")
+    ax[5].plot(err["t"], 100 * np.hypot(err["north"], err["east"]), lw=0.8, label="horizontal error (cm)")
+    ax[5].set_ylabel("navigation error (cm, cm/s)")
+    ax[5].set_xlabel("time (s), released at %g s" % estimation.HOLD_S)
     for a in ax:
         a.axvline(estimation.HOLD_S, color="k", lw=0.5, alpha=0.5)
         a.grid(alpha=0.3)
+    for a in ax[:2]:
+        a.axvspan(float(t[0]), t_valid, color="0.9", lw=0)
+    for a in (ax[2], ax[5]):
+        a.axvspan(float(t[0]), t_valid, color="0.9", lw=0, label="aligning, not yet valid (no errors drawn)")
+        lo, hi = a.dataLim.intervaly
+        a.set_ylim(top=lo + 1.45 * (hi - lo))   # room for the legend above the curves
+        a.legend(ncol=2, fontsize=8, loc="upper right")
     fig.suptitle("On-board estimator, standard scenario (estimates dashed)")
-    fig.tight_layout()
-    # 64 colours are plenty for line plots and keep the file a fifth the size
+    fig.tight_layout(rect=(0, 0, 1, 0.985))
+    return fig
+
+
+def plot(path: str, truth, logs, est) -> None:
+    """``figure`` written to ``path`` with 64 colours: plenty for line
+    plots, and the file a fifth the size."""
     import io
 
+    import matplotlib.pyplot as plt
     from PIL import Image
 
+    fig = figure(truth, logs, est)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=72)
     plt.close(fig)

@@ -1,0 +1,187 @@
+"""The figures: their data, limits and labels (the matplotlib objects, not
+pixels), and one naming and unit style across them: wings "wing 1".."wing 4",
+units in parentheses."""
+
+import math
+import re
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+
+def texts(fig) -> list:
+    """Every label, title, tick-less text and legend entry of a figure."""
+    out = [t.get_text() for t in fig.texts]
+    for ax in fig.axes:
+        out += [ax.get_title(), ax.get_xlabel(), ax.get_ylabel()]
+        legend = ax.get_legend()
+        if legend is not None:
+            out += [t.get_text() for t in legend.get_texts()]
+    return [t for t in out if t]
+
+
+def check_style(fig) -> None:
+    for text in texts(fig):
+        assert not re.search(r"\bs[1-4]\b", text), text                      # wings are "wing k"
+        bare = re.sub(r"\([^)]*\)", "", text)
+        assert not re.search(r", (m|s|deg|m/s|rad/s|cm)\b", bare), text     # units in parentheses
+    assert any(re.search(r"\((m|s|deg|m/s|rad/s|Hz|1/s)\)", t) for t in texts(fig))
+
+
+def legend_labels(ax) -> list:
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def test_drop_draws_round_off_as_zero_and_names_the_wings():
+    from roboray.sim.dynamics import Model
+    from roboray.sim.plots import WINGS, drop_figure
+    from roboray.sim.simulate import simulate
+
+    model = Model(None)
+    run = simulate(model, model.state(wings=np.zeros(4)), 5.0, dt=0.01)
+    rates = run.nu[:, 0, 3:]
+    assert np.abs(rates).max() < 1e-12   # a symmetric straight fall: zero up to round-off
+    fig = drop_figure(run, "drop")
+    try:
+        body, ned, rate_ax, horizontal, wings = fig.axes[:5]
+        lo, hi = rate_ax.get_ylim()
+        assert hi - lo >= 0.02 and lo <= 0.0 <= hi          # not 1e-16 at full scale
+        lo, hi = horizontal.get_ylim()
+        assert hi - lo >= 0.02
+        lo, hi = body.get_ylim()
+        assert hi >= 0.29                                     # real data keeps its own scale
+        assert legend_labels(wings) == list(WINGS)
+        assert len({line.get_linestyle() for line in wings.get_lines()}) == 4   # overlapping wings stay visible
+        assert rate_ax.get_ylabel() == "body rates (rad/s)" and wings.get_ylabel() == "wing angle (deg)"
+        check_style(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_stability_map_panels_say_something_and_explain_grey():
+    from roboray.sim.analysis import stability_map
+
+    result = stability_map.compute(step_deg=45.0, settle_s=10.0)
+    sl = result["slices"]["s13_vs_s24"]
+    hz = np.array(sl["reduced_slowest_tilt_hz"])
+    assert np.all(np.isfinite(hz)) and hz.min() > 1.0 and hz.max() - hz.min() > 0.1   # differs across the slice
+    fig = stability_map.figure(result)
+    try:
+        panels = [ax for ax in fig.axes if ax.get_images()]
+        assert len(panels) == 4
+        titles = [ax.get_title() for ax in panels]
+        assert len(set(titles)) == 4, titles
+        for ax in panels:
+            image = ax.get_images()[0]
+            data = np.ma.masked_invalid(image.get_array())
+            assert data.count() > 0 and data.max() > data.min(), ax.get_title()   # no blank panel
+            assert legend_labels(ax)[0].startswith("grey: "), ax.get_title()
+        left = [ax for ax in panels if "no drag" in ax.get_title()]
+        assert len(left) == 2
+        # the second slice has configurations with no straight fall: grey, and the legend says why
+        assert np.ma.masked_invalid(left[1].get_images()[0].get_array()).mask.any()
+        assert "not steady" in legend_labels(left[1])[0]
+        bars = [ax for ax in fig.axes if not ax.get_images() and ax.get_ylabel()]
+        assert {b.get_ylabel().split("\n")[0] for b in bars} == {
+            "slowest tilt oscillation (Hz)", "largest real part of the eigenvalues (1/s)"}
+        right = [ax for ax in panels if "with drag" in ax.get_title()]
+        lims = {ax.get_images()[0].norm.vmax for ax in right}
+        assert len(lims) == 1 and lims.pop() > 0.1      # one scale for both slices, not +-0.001
+        check_style(fig)
+    finally:
+        plt.close(fig)
+
+
+@pytest.fixture(scope="module")
+def estimator_run():
+    from roboray.sim import estimation
+
+    truth = estimation.standard_truth(0, "kinematic")
+    logs = estimation.simulate_sensors(truth, 0)
+    t_ticks, calls = estimation.schedule(truth, logs)
+    est = estimation.run(estimation.estimator_config(logs, truth), calls, t_ticks)
+    return truth, logs, est
+
+
+def test_estimator_errors_start_once_valid_and_yaw_does_not_wrap(estimator_run):
+    from roboray.sim.commands.estimator import figure
+
+    truth, logs, est = estimator_run
+    first_valid = float(est.t[np.flatnonzero(est.status[:, 1] == 1)[0]])
+    assert first_valid > 0.5
+    fig = figure(truth, logs, est)
+    try:
+        axes = {ax.get_ylabel(): ax for ax in fig.axes}
+        errors = axes["attitude error (deg)"]
+        for line in errors.get_lines():
+            x, y = line.get_data()
+            if len(x) > 2:   # the error curves, not the release marker
+                assert x[0] >= first_valid - 0.05 and np.max(y) < 20.0, line.get_label()
+        assert errors.get_ylim()[1] < 20.0      # scaled by the flight, not by the alignment's 165 deg
+        assert "aligning, not yet valid (no errors drawn)" in legend_labels(errors)
+        yaw = axes["yaw (deg, unwrapped)"]
+        truth_line = [ln for ln in yaw.get_lines() if ln.get_label() == "yaw truth"][0]
+        x, y = truth_line.get_data()
+        assert np.abs(np.diff(y)).max() < 30.0   # no +-180 deg wrap
+        estimate = [ln for ln in yaw.get_lines() if ln.get_label() == "yaw estimate"][0]
+        xe, ye = estimate.get_data()
+        after = xe >= first_valid
+        assert np.abs(ye[after] - y[after]).max() < 20.0   # drawn on the truth's turn
+        nav = axes["navigation error (cm, cm/s)"]
+        assert all(line.get_data()[0][0] >= first_valid - 0.05 for line in nav.get_lines() if len(line.get_data()[0]) > 2)
+        check_style(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_montecarlo_legend_entries_are_distinct():
+    from roboray.sim.commands.control import landings_figure
+
+    # the --runs-out records' fields the figure reads
+    results = [{"target": [2.0 * math.cos(a), 2.0 * math.sin(a)],
+                "landing_position": [2.0 * math.cos(a) + 0.02 * math.sin(3 * a), 2.0 * math.sin(a) + 0.01]}
+               for a in np.linspace(0.0, 6.0, 8)] + [{"target": [0.0, 2.0], "landing_position": None}]
+    summary = {"runs": 9, "landing_error_p50_m": 0.015, "landing_error_p95_m": 0.03, "landing_error_worst_m": 0.03}
+    fig = landings_figure(results, summary)
+    try:
+        ax = fig.axes[0]
+        labels = legend_labels(ax)
+        assert len(labels) == len(set(labels)) == 4, labels
+        assert "landings (8 of 9 runs)" in labels and "required: p95 within 0.5 m" in labels
+        handles = ax.get_legend().legend_handles
+        looks = {(str(h.get_edgecolor() if hasattr(h, "get_edgecolor") else h.get_color()), str(h.get_linestyle()),
+                  str(getattr(h, "get_marker", lambda: "")())) for h in handles}
+        assert len(looks) == len(handles)         # no two entries drawn alike
+        circles = sorted(p.get_radius() for p in ax.patches)
+        assert circles == [0.03, 0.5]
+        check_style(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_fly_and_thesis_figures_name_the_wings():
+    from roboray.sim import flight as F
+    from roboray.sim.commands.control import flight_figure, thesis_figure
+    from roboray.sim.plots import WINGS
+
+    flight = F.fly(F.FlightSpec(mode="velocity", velocity=(0.1, 0.0, 0.0), truth=True, max_flight_s=5.0))
+    fig = flight_figure(flight)
+    try:
+        wings = [ax for ax in fig.axes if ax.get_ylabel() == "wing angle (deg)"][0]
+        assert legend_labels(wings) == list(WINGS)
+        check_style(fig)
+    finally:
+        plt.close(fig)
+    runs = [F.thesis_run(0.5, control=False, duration=2.0), F.thesis_run(0.5, duration=2.0),
+            F.thesis_run(0.0, control=False, duration=2.0)]
+    fig = thesis_figure(*runs, {1.0: F.thesis_run(0.0, kv2=1.0, duration=2.0)})
+    try:
+        labels = sum((legend_labels(ax) for ax in fig.axes if ax.get_legend()), [])
+        assert set(WINGS) <= set(labels) and "wing 2, K_v2 = 1" in labels
+        check_style(fig)
+    finally:
+        plt.close(fig)
