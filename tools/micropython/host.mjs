@@ -358,33 +358,34 @@ function serialInput(M, nbFd, state, hangUp) {
 
 // The clock. MicroPython here runs synchronously on Node's only thread, so a
 // running program never returns to read stdin; a board would see Ctrl-C in
-// its USB interrupt. This hook runs whenever MicroPython reads its clock
-// (ticks_ms, sleep_ms, file times: any real main loop does) and, while a
-// program runs, takes in what the host sent at most every 10 ms. It also
-// gives the core away in a busy wait: the port's sleep_ms and select.poll's
-// time-out spin on the clock, so after 20 readings within one millisecond
-// the thread sleeps a millisecond.
+// its USB interrupt. Date.now runs whenever MicroPython reads its clock or
+// the file system stamps a file (any real main loop does either), so, while
+// a program runs, it takes in what the host sent, at most every 10 ms.
+// And the port's sleep_ms and select.poll's time-out spin on its clock
+// (ticks, the import busyWait wraps below): after 20 readings within one
+// millisecond the thread sleeps a millisecond, giving the core away.
 function installClock(input, state) {
   const realNow = Date.now.bind(Date);
   let lastLook = 0;
-  let lastT = 0;
-  let same = 0;
   Date.now = () => {
-    let t = realNow();
-    if (!state.running) return t;
-    if (t - lastLook >= 10) {
+    const t = realNow();
+    if (state.running && t - lastLook >= 10) {
       lastLook = t;
       input.look();
     }
+    return t;
+  };
+  let lastT = 0;
+  let same = 0;
+  return () => {
+    const t = realNow();
     if (t !== lastT) {
       lastT = t;
       same = 0;
     } else if (++same >= 20) {
       same = 0;
       input.sleepMs(1);
-      t = realNow();
     }
-    return t;
   };
 }
 
@@ -405,20 +406,22 @@ function installBadWrites(mp, prefix, count) {
   };
 }
 
-// File errors with a board's numbers. Emscripten's file system speaks
-// WASI's errno (ENOENT is 44), which MicroPython raises as it is, so
-// OSError.errno matched nothing in the errno module and tracebacks said
-// "OSError: 44". The interpreter's imports are wrapped as it is
-// instantiated: a syscall's -errno and a WASI call's errno come back as
-// MicroPython's (mperrno.h, Linux's numbers), so the board prints and
-// compares what a Pico does. EINTR stays as it is: the interpreter retries
-// on its own number.
+// The interpreter's imports, wrapped as it is instantiated:
+//
+// - File errors with a board's numbers. Emscripten's file system speaks
+//   WASI's errno (ENOENT is 44), which MicroPython raises as it is, so
+//   OSError.errno matched nothing in the errno module and tracebacks said
+//   "OSError: 44". A syscall's -errno and a WASI call's errno come back as
+//   MicroPython's (mperrno.h, Linux's numbers), so the board prints and
+//   compares what a Pico does. EINTR stays as it is: the interpreter
+//   retries on its own number.
+// - The clock: each reading of MicroPython's ticks calls hooks.onClock.
 const BOARD_ERRNO = {
   63: 1, 44: 2, 29: 5, 8: 9, 6: 11, 48: 12, 2: 13, 10: 16, 20: 17, 43: 19, 54: 20,
   31: 21, 28: 22, 51: 28, 69: 30, 55: 39, 138: 95, 73: 110,
 };
 
-function boardErrnoImports() {
+function wrapImports(hooks) {
   const instantiate = WebAssembly.instantiate;
   WebAssembly.instantiate = function (binary, imports) {
     const wrapped = {};
@@ -430,6 +433,8 @@ function boardErrnoImports() {
           wrapped[mod][name] = (...a) => { const r = fn(...a); return r < 0 && BOARD_ERRNO[-r] ? -BOARD_ERRNO[-r] : r; };
         } else if (name.startsWith("fd_")) {
           wrapped[mod][name] = (...a) => { const r = fn(...a); return r > 0 && BOARD_ERRNO[r] ? BOARD_ERRNO[r] : r; };
+        } else if (name === "mp_js_ticks_ms") {
+          wrapped[mod][name] = (...a) => { hooks.onClock(); return fn(...a); };
         } else wrapped[mod][name] = fn;
       }
     }
@@ -507,7 +512,8 @@ async function replMode() {
         "MicroPython v$1 on $2; " + options.identity.machine), "latin1"));
     }
   } : (fn) => fn();
-  boardErrnoImports();
+  const hooks = { onClock: () => {} };
+  wrapImports(hooks);
   const mp = await loadMicroPython({
     heapsize: heap,
     linebuffer: false,
@@ -539,7 +545,7 @@ async function replMode() {
     process.exit(0);
   };
   const input = serialInput(M, options.nonblock_fd, state, hangUp);
-  installClock(input, state);
+  hooks.onClock = installClock(input, state);
   const stdinOps = mp.FS.getStream(0).stream_ops;
   stdinOps.read = (stream, buffer, offset, length) => input.read(buffer, offset, length);
   stdinOps.poll = () => (input.readable() ? 1 : 0) | 4; // POLLIN, POLLOUT
