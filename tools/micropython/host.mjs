@@ -255,12 +255,12 @@ function usedBlocks(mp, dir) {
 // nor a program has read yet, as a board's USB receive buffer. The REPL
 // reads it when idle, waiting on stdin; a running program reads it through
 // sys.stdin (mpremote's mount protocol does), and while any program runs
-// the clock hook below looks for new bytes, so Ctrl-C reaches it. Without
-// waiting, because virtual_board.py hands over its FIFO twice: as stdin,
-// blocking, and as nonblock_fd. Bytes that arrive while a program runs pass
-// the board's USB handler: the interrupt character (Ctrl-C, or what
-// micropython.kbd_intr set; none after kbd_intr(-1), as mount's protocol
-// asks) schedules a KeyboardInterrupt instead of being stored.
+// the clock hook below looks for new bytes, so Ctrl-C reaches it. A program
+// looks without waiting: virtual_board.py hands over its FIFO twice, as
+// stdin (blocking) and as nonblock_fd. Bytes that arrive while a program
+// runs pass the board's USB handler: the interrupt character (Ctrl-C, or
+// what micropython.kbd_intr set; none after kbd_intr(-1), as mount's
+// protocol asks) schedules a KeyboardInterrupt instead of being stored.
 function serialInput(M, nbFd, state, hangUp) {
   const chunk = Buffer.alloc(4096);
   let rx = Buffer.alloc(0);
