@@ -48,12 +48,16 @@ class State:
     def update(self, m: Any, now: Optional[float] = None) -> None:
         now = time.monotonic() if now is None else now
         t = m.get_type()
+        self.received += 1
+        if m.get_msgId() < 0:
+            # a message the dialect lacks: pymavlink gives it no header (system
+            # 0, sequence 0), so it says nothing of the sender's sequence
+            return
         src = (m.get_srcSystem(), m.get_srcComponent())
         seq = m.get_seq()
         if src in self._seq:
             self.lost += (seq - self._seq[src] - 1) & 0xFF
         self._seq[src] = seq
-        self.received += 1
         if t == "HEARTBEAT" and m.type != 6:
             if self.was_lost:
                 self.was_lost = False

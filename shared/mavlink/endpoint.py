@@ -34,8 +34,13 @@ Handled:
 - the standard modes protocol, for ground stations that take the mode
   names from the vehicle: AVAILABLE_MODES (REQUEST_MESSAGE 435; param2 0:
   every mode, one a turn, else the mode of that index from 1) and
-  CURRENT_MODE (every other heartbeat, 0.5 Hz, and at once on a mode
-  change; REQUEST_MESSAGE 436), with MAV_STANDARD_MODE where one matches;
+  CURRENT_MODE (REQUEST_MESSAGE 436; and, once a ground station asked for
+  either, with every other heartbeat, 0.5 Hz, and at once on a mode
+  change), with MAV_STANDARD_MODE where one matches. Not before: to a
+  ground station whose dialect lacks them (MAVProxy's, pymavlink's
+  common.xml) a CURRENT_MODE is a frame whose sequence number pymavlink
+  cannot read, and it counted the next frame's as a loss (1.6 % of a
+  lossless link);
 - SET_POSITION_TARGET_LOCAL_NED (position bits) sets the target too;
 - the mission protocol (``mission.py``, ``mission``): the landing target
   as a mission (home and one NAV_LAND) to download, upload and clear;
@@ -303,6 +308,7 @@ class Endpoint:
         self._avail_next = 0    # AVAILABLE_MODES to send: indices _avail_next.._avail_last (0: none)
         self._avail_last = 0
         self._mode_sent = -1    # the mode CURRENT_MODE last said
+        self._modes_asked = False   # a ground station asked for the standard modes' messages
         self._hb_odd = False    # CURRENT_MODE goes with every other heartbeat
         self._euler = array("f", [0.0, 0.0, 0.0])
         self.now_ms = 0
@@ -358,7 +364,7 @@ class Endpoint:
         # what is due
         if self.params.version != self._params_version:
             self._load_rates()
-        if self.modes.mode != self._mode_sent:
+        if self._modes_asked and self.modes.mode != self._mode_sent:
             self._pending |= _F_CURRENT_MODE
         # ticks_diff(now, _wake) >= 0, inline: the wrapped difference is below half the period
         if (now - self._wake) & _TICKS_MASK < _TICKS_HALF:
@@ -455,7 +461,7 @@ class Endpoint:
             pend |= _F_HEARTBEAT
             odd = not self._hb_odd
             self._hb_odd = odd
-            if odd:
+            if odd and self._modes_asked:
                 pend |= _F_CURRENT_MODE
         wake = hb
         due = self._due_ms
@@ -781,7 +787,8 @@ class Endpoint:
     def _request_modes(self, p, cmd, mid, param2):
         """REQUEST_MESSAGE of CURRENT_MODE, or of AVAILABLE_MODES: param2 0
         every mode, else the one of that index (from 1); they go out paced,
-        one a turn, as stream frames do."""
+        one a turn, as stream frames do. Either starts CURRENT_MODE's stream."""
+        self._modes_asked = True
         if mid == msg.MSG_CURRENT_MODE:
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
             self._pending |= _F_CURRENT_MODE
