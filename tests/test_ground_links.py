@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -79,7 +80,10 @@ def test_a_tcp_port_nobody_listens_on_is_one_line_at_once():
 
 
 def _sil(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "roboray.sim.cli", "sil", "--interpreter", "cpython", *args],
+    """The twin on a radio, lingering after a short scenario until SIGINT:
+    the test, not the machine's load, says when the vehicle goes."""
+    return subprocess.Popen([sys.executable, "-m", "roboray.sim.cli", "sil", "--interpreter", "cpython",
+                             "--duration", "2", "--linger", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -91,12 +95,20 @@ def _radio_line(proc: subprocess.Popen) -> str:
     return line
 
 
+def _end(sil: subprocess.Popen) -> str:
+    """Ctrl-C the lingering twin; its stderr. It exits 0 (the scenario had ended)."""
+    sil.send_signal(signal.SIGINT)
+    _, err = sil.communicate(timeout=120)
+    assert sil.returncode == 0, err
+    return err
+
+
 def test_udp_port_alone_listens_for_the_twin_as_mavproxy_does():
     port = free_port(socket.SOCK_DGRAM)
-    sil = _sil("--radio", "udp:%d" % port, "--speedup", "1", "--duration", "12")
+    sil = _sil("--radio", "udp:%d" % port)
     try:
         assert "--master udp:%d" % port in _radio_line(sil)
-        r = ground("status", "--master", "udp:%d" % port, "--json", "--timeout", "20")
+        r = ground("status", "--master", "udp:%d" % port, "--json", "--timeout", "60")
         assert r.returncode == 0, r.stderr
         status = json.loads(r.stdout)
         assert status["source"] == "udpin:0.0.0.0:%d" % port and status["system"] == 1 and status["frames"] > 5
@@ -104,30 +116,30 @@ def test_udp_port_alone_listens_for_the_twin_as_mavproxy_does():
         r = ground("param", "get", "FS_GCS_TIMEOUT", "--master", "udpin:127.0.0.1:%d" % port, "--json")
         assert r.returncode == 0 and json.loads(r.stdout) == {"FS_GCS_TIMEOUT": 5.0}, r.stderr
     finally:
-        out, err = sil.communicate(timeout=120)
-    assert sil.returncode == 0, err
+        _end(sil)
 
 
 def test_tcp_to_the_twin_as_to_sitl_and_the_end_closes_the_link():
     port = free_port()
-    sil = _sil("--radio", "tcp:%d" % port, "--speedup", "1", "--duration", "12")
+    sil = _sil("--radio", "tcp:%d" % port)
     try:
         assert "--master tcp:127.0.0.1:%d" % port in _radio_line(sil)
-        r = ground("status", "--master", "tcp:%d" % port, "--json", "--timeout", "20")
+        r = ground("status", "--master", "tcp:%d" % port, "--json", "--timeout", "60")
         assert r.returncode == 0, r.stderr
         assert json.loads(r.stdout)["source"] == "tcp:127.0.0.1:%d" % port
         # the next ground station takes the line the first one left, and
         # sees the link close when the run ends
-        watch = ground("watch", "--master", "tcp:127.0.0.1:%d" % port, "--plain", timeout=120)
+        watch, lines, seen = _start("watch", "--master", "tcp:127.0.0.1:%d" % port, "--plain")
+        assert seen.wait(120), lines
     finally:
-        out, err = sil.communicate(timeout=120)
-    assert sil.returncode == 0, err
-    assert watch.returncode == EXIT_CLOSED
-    assert errors(watch.stderr) == ["roboray-ground: error: link closed: the vehicle closed the TCP connection "
-                                    "(tcp:127.0.0.1:%d)" % port]
-    lines = watch.stdout.splitlines()
-    assert any("disarmed" in ln or "ARMED" in ln for ln in lines), watch.stdout
-    assert "EOF" not in watch.stdout + watch.stderr
+        _end(sil)
+    err = watch.stderr.read()
+    watch.wait(timeout=60)
+    assert watch.returncode == EXIT_CLOSED, err
+    assert errors(err) == ["roboray-ground: error: link closed: the vehicle closed the TCP connection "
+                           "(tcp:127.0.0.1:%d)" % port]
+    assert any("disarmed" in ln or "ARMED" in ln for ln in lines), lines
+    assert "EOF" not in "\n".join(lines) + err
 
 
 def test_tcpin_waits_for_the_vehicle_to_connect():
@@ -164,6 +176,8 @@ def test_tcpin_waits_for_the_vehicle_to_connect():
                 if up:
                     line.write(up)
                 time.sleep(0.005)
+        except (ConnectionResetError, BrokenPipeError):
+            pass    # the ground station left when its command was done
         except Exception as exc:  # reported by the assertion below
             errors_seen.append(repr(exc))
         finally:
@@ -203,26 +217,42 @@ def _start(*args: str) -> tuple[subprocess.Popen, list, threading.Event]:
     return proc, lines, seen
 
 
+def _holds(proc: subprocess.Popen, device: str) -> bool:
+    """Whether the process has ``device`` open."""
+    fds = "/proc/%d/fd" % proc.pid
+    try:
+        return any(os.readlink(os.path.join(fds, fd)) == device for fd in os.listdir(fds))
+    except OSError:
+        return False
+
+
 def test_a_port_that_goes_away_ends_watch_status_and_log_record_with_exit_3(tmp_path):
     log = tmp_path / "cut.tlog"
-    vehicle = PtyVehicle().start()
-    device = vehicle.device
+    # one vehicle each: readers sharing a serial line would share its bytes
+    vehicles = [PtyVehicle().start() for _ in range(3)]
+    devices = [v.device for v in vehicles]
     try:
-        watch, watch_lines, watch_seen = _start("watch", "--master", device, "--plain")
-        status, _, _ = _start("status", "--master", device, "--listen", "600")
-        record, _, _ = _start("log", "record", str(log), "--master", device)
-        # a loaded machine may take seconds to start the CLIs: close only
-        # once each has the vehicle (watch prints it, the others write)
-        assert watch_seen.wait(60), watch_lines
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not (log.exists() and log.stat().st_size > 0):
+        watch, watch_lines, watch_seen = _start("watch", "--master", devices[0], "--plain")
+        status, status_lines, _ = _start("status", "--master", devices[1], "--listen", "600")
+        record, record_lines, _ = _start("log", "record", str(log), "--master", devices[2])
+        # a loaded machine may take seconds to start the CLIs: pull the
+        # ports only once each holds its own, and watch and the record
+        # have had the vehicle
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not (
+                all(_holds(p, d) for p, d in zip((watch, status, record), devices))
+                and watch_seen.is_set() and log.exists() and log.stat().st_size > 0):
             time.sleep(0.2)
-        time.sleep(2.0)
+        assert watch_seen.is_set(), watch_lines
+        time.sleep(1.0)
     finally:
-        vehicle.close()     # the radio's USB plug pulled, the twin's pseudo-terminal closed
-    want = "roboray-ground: error: link closed: the vehicle's port went away (%s)" % device
-    for proc in (watch, status, record):
-        out, err = proc.communicate(timeout=60)
+        for v in vehicles:
+            v.close()   # the radio's USB plug pulled, the twin's pseudo-terminal closed
+    for proc, lines, device in zip((watch, status, record), (watch_lines, status_lines, record_lines), devices):
+        want = "roboray-ground: error: link closed: the vehicle's port went away (%s)" % device
+        err = proc.stderr.read()    # stdout is the reader thread's
+        proc.wait(timeout=60)
+        out = "\n".join(lines)
         assert proc.returncode == EXIT_CLOSED, (proc.args, err)
         assert errors(err) == [want], (proc.args, err)
         assert "is dead" not in out + err and "Traceback" not in err and "Errno" not in err

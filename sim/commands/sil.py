@@ -1,8 +1,8 @@
 """``roboray-sim sil`` and ``bench sil``: the firmware flying the simulated vehicle.
 
-``sil`` on a terminal shows its progress (simulated time against the
-scenario's length, with an ETA; nothing with ``--json`` or when stderr is
-not a terminal). Ctrl-C stops the twin at its next frame and ``sil`` still
+``sil`` on a terminal shows its progress (``sim/progress.py``: simulated
+seconds against the scenario's length, with an ETA; nothing with ``--json``
+or when stderr is not a terminal). Ctrl-C stops the twin at its next frame and ``sil`` still
 reports what flew, marked interrupted, writes the plot and leaves a whole
 tlog, then exits 130; a second Ctrl-C stops at once. ``--linger`` keeps the
 vehicle on the radio after the scenario until Ctrl-C, which then ends the
@@ -63,7 +63,8 @@ def _options(args: argparse.Namespace):
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
                    board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", False),
-                   key=getattr(args, "key", None), linger=getattr(args, "linger", False))
+                   key=getattr(args, "key", None), linger=getattr(args, "linger", False),
+                   board_fs=getattr(args, "board_fs", None))
 
 
 def _twin(args: argparse.Namespace, **kwargs):
@@ -125,42 +126,26 @@ def _announce(radio) -> None:
     sys.stderr.flush()
 
 
-class Progress:
-    """The run's progress on a terminal (tqdm, on stderr): simulated time
-    against the scenario's length and the time left at the pace so far;
-    with ``--linger``, then the time on the radio since the scenario ended.
-    Called by the twin after each frame; ``close()`` clears the line."""
+class Follow:
+    """Moves the progress bar (``sim/progress.py``) after each frame the
+    twin computed: simulated seconds against the scenario's length, then,
+    with ``--linger``, the time on the radio since the scenario ended."""
 
-    def __init__(self, total_s: float) -> None:
-        import os
-
-        from tqdm import tqdm
-
-        self._tqdm = tqdm
-        self.lingering = False
-        # a terminal that reports no size (a bare pseudo-terminal, some
-        # consoles) gets 80 by 24: tqdm would draw nothing in 0 by 0
-        try:
-            size = os.get_terminal_size(sys.stderr.fileno())
-        except (OSError, ValueError):
-            size = os.terminal_size((0, 0))
-        self._size = {"dynamic_ncols": True} if size.columns > 0 and size.lines > 0 else {"ncols": 80, "nrows": 24}
-        self.bar = tqdm(total=total_s, desc="simulated", unit="s", leave=False, file=sys.stderr, **self._size,
-                        bar_format="{desc} {n:.1f} of {total:.0f} s |{bar}| {elapsed} elapsed, ETA {remaining}")
+    def __init__(self, bar) -> None:
+        self.bar = bar
+        self._lingered = -1
 
     def __call__(self, twin) -> None:
-        t = twin.world.t
-        if twin.scenario_end_s is not None and twin.options.linger:
-            if not self.lingering:
-                self.bar.close()
-                self.lingering = True
-                self.bar = self._tqdm(desc="on the radio after the scenario (Ctrl-C ends)", unit="s", leave=False,
-                                      file=sys.stderr, bar_format="{desc}: {n:.0f} s", **self._size)
-            t -= twin.scenario_end_s
-        self.bar.update(t - self.bar.n)
-
-    def close(self) -> None:
-        self.bar.close()
+        end = twin.scenario_end_s
+        if end is not None and twin.options.linger:
+            lingered = int(twin.world.t - end)
+            if lingered != self._lingered:   # once a second: a postfix redraws the bar
+                self._lingered = lingered
+                self.bar.set_postfix_str(", then %d s on the radio (Ctrl-C ends)" % lingered)
+            return
+        done = int(twin.world.t)
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
 
 
 def _timeline(r: dict) -> str:
@@ -177,23 +162,17 @@ def _timeline(r: dict) -> str:
 
 
 def do_sil(args: argparse.Namespace) -> None:
-    import contextlib
+    import math
 
-    from tqdm.contrib.logging import logging_redirect_tqdm
+    from roboray.sim import progress
 
-    progress = None
     twin = _twin(args, on_radio=_announce, interruptible=True)
     log.info("scenario %s, seed %d, firmware on %s, %s", args.scenario, args.seed, args.interpreter,
              "as fast as possible" if args.speedup is None else "%gx real time" % args.speedup)
-    if sys.stderr.isatty() and not args.json:
-        progress = twin.on_frame = Progress(twin.scenario.duration_s)
-    try:
-        # log lines above the bar, not through it
-        with logging_redirect_tqdm() if progress is not None else contextlib.nullcontext():
-            report = _run(twin)
-    finally:
-        if progress is not None:
-            progress.close()
+    with progress.bar(args, math.ceil(twin.scenario.duration_s), "simulated", unit="s") as bar:
+        if progress.shown(args):
+            twin.on_frame = Follow(bar)
+        report = _run(twin)
     console = report.pop("console")
     for line in console:
         log.debug("board: %s", line)
@@ -245,6 +224,11 @@ def do_sil(args: argparse.Namespace) -> None:
             lines.append("wrote %s" % r["plot"])
         if r.get("tlog"):
             lines.append("wrote %s" % r["tlog"])
+        if r.get("board_fs"):
+            fs = r["board_fs"]
+            logs = [f for f in fs["files"] if f.startswith("logs/") and f.endswith(".BIN")]
+            lines.append("kept the board's flash in %s: %d file(s)%s" % (
+                fs["folder"], len(fs["files"]), ", flight log %s" % ", ".join(logs) if logs else ""))
         return "\n".join(lines)
 
     emit(args, report, text)
@@ -421,6 +405,10 @@ def register(sub, bench) -> None:
                    help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr), to a "
                         "ground station listening on UDP PORT (udp:HOST:PORT elsewhere; roboray-ground --master "
                         "udp:PORT), or listen on TCP PORT as ArduPilot's SITL does (--master tcp:127.0.0.1:PORT)")
+    p.add_argument("--board-fs", metavar="DIR",
+                   help="keep the board's flash in DIR after the run: parameters, dive state and the flight logs "
+                        "(DIR/logs/00000001.BIN, read with roboray-ground log plot or mavlogdump.py); a run that "
+                        "ends after landing lasts 10 s longer, for the log to reach flash once the vehicle rests")
     p.add_argument("--linger", action="store_true",
                    help="with --radio: after the scenario, keep the vehicle alive (resting where it is, real time, "
                         "radio open) until Ctrl-C, for a ground station still watching; Ctrl-C then ends the run "
