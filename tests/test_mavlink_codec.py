@@ -333,3 +333,31 @@ def test_the_tlog_decoder_reads_such_a_frame_without_the_key():
     assert out["mavpackettype"] == "ATTITUDE" and out["crc_ok"] is True
     out = Decoder(KEY).decode(f)
     assert out["crc_ok"] is True and out["signature_ok"] is True
+
+
+def test_ids_above_255_are_framed_and_parsed_and_unknown_ones_refused():
+    """WIRE_HIGH: SETUP_SIGNING, AVAILABLE_MODES and CURRENT_MODE have their
+    bytes after the dense part; an id above 255 the table lacks (437,
+    AVAILABLE_MODES_MONITOR) is refused by the framer and skipped by the
+    parser, which finds the frame after it."""
+    from roboray.shared.mavlink.frame import Writer
+
+    assert [M.wire_high(m) for m in (256, 435, 436)] == [768, 771, 774]
+    assert M.wire_high(437) == M.wire_high(-1) == M.wire_high(1 << 24) == 777 == len(M.WIRE) - 3
+    assert M.WIRE[777:780] == b"\0\0\0"
+    w = Writer(1, 1)
+    for bad in (437, -1, 300, 1 << 24):
+        with pytest.raises(KeyError):
+            w.finish(bad)
+    mav = pm.MAVLink(None, 1, 1)
+    stream = (pm.MAVLink_available_modes_monitor_message(3).pack(mav)
+              + pm.MAVLink_current_mode_message(0, 19, 19).pack(mav)
+              + pm.MAVLink_heartbeat_message(12, 0, 1, 19, 3, 3).pack(mav))
+    p = Parser()
+    got = []
+    i = 0
+    while i < len(stream):
+        i = p.feed(stream, i, len(stream))
+        if p.ready:
+            got.append(p.msgid)
+    assert got == [436, 0] and p.unknown == 1

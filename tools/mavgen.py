@@ -16,7 +16,9 @@ type, name and array length, folded to one byte.
 
 Message ids 0-255 have three bytes each in ``WIRE``, indexed by id; the
 few above 255 (``WIRE_HIGH`` lists them, three bytes an id) follow, in
-that order, and ``wire_high(msgid)`` finds their place without allocating.
+that order, then three zeros, and ``wire_high(msgid)`` finds an id's place
+without allocating (the zeros' for an id it lacks, so the callers test one
+byte, as for an id below 256).
 
 Run: ``python -m roboray.tools.mavgen [--check] [--out PATH]``.
 """
@@ -245,10 +247,11 @@ def generate(xml: Path) -> str:
         "``WIRE[w + WIRE_CRC_EXTRA]`` its CRC_EXTRA, ``WIRE[w + WIRE_MIN_LEN]`` its",
         "MAVLink 1 payload (base fields), ``WIRE[w + WIRE_MAX_LEN]`` its MAVLink 2",
         "payload (with extensions), 0 for an unknown id. ``w`` is ``3 * m`` for an",
-        "id ``m`` below ``WIRE_DENSE``, ``wire_high(m)`` above (-1: unknown): the",
-        "few ids above 255 are listed in ``WIRE_HIGH`` (three bytes each, little-",
-        "endian) and their three bytes follow the dense part in that order, so a",
-        "high id costs six bytes, not three times its value. A bytes constant is",
+        "id ``m`` below ``WIRE_DENSE``, ``wire_high(m)`` above: the few ids above",
+        "255 are listed in ``WIRE_HIGH`` (three bytes each, little-endian), their",
+        "three bytes follow the dense part in that order, then three zeros, where",
+        "``wire_high`` points for an id it lacks; so a high id costs six bytes, not",
+        "three times its value, and every caller tests one byte. A bytes constant is",
         "one object with no children for the collector, and from the ROMFS",
         "partition its data stays in flash (the tuples of names and formats it",
         "replaces were 140 objects on the heap and overflowed the collector's",
@@ -288,7 +291,7 @@ def generate(xml: Path) -> str:
     for m in chosen:
         out.append('%s_FMT = "%s"' % (m.name, m.fmt))
         out.append("%s_LEN = const(%d)" % (m.name, m.max_len))
-    wire = bytearray(3 * (WIRE_DENSE + len(high)))
+    wire = bytearray(3 * (WIRE_DENSE + len(high) + 1))   # (the last three: an unknown id's)
     ids = bytearray()
     for m in chosen:
         if not 0 <= m.id < 1 << 24 or not 0 < m.max_len < 256:
@@ -298,22 +301,24 @@ def generate(xml: Path) -> str:
             ids += m.id.to_bytes(3, "little")
         wire[w:w + 3] = bytes((m.crc_extra, m.min_len, m.max_len))
     out += ["", "# CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-%d" % (WIRE_DENSE - 1),
-            "# (three zeros: unknown), then of WIRE_HIGH's ids (%s)" % ", ".join(str(m.id) for m in high),
+            "# (three zeros: unknown), then of WIRE_HIGH's ids (%s), then three zeros"
+            % ", ".join(str(m.id) for m in high),
             "WIRE = ("]
     for k in range(0, len(wire), 48):
         out.append('    b"%s"' % "".join("\\x%02x" % b for b in wire[k:k + 48]))
     out += [")", "#: The ids above 255 WIRE holds, three bytes each (little-endian)",
             'WIRE_HIGH = b"%s"' % "".join("\\x%02x" % b for b in ids), "", "",
             "def wire_high(msgid):",
-            '    """Where an id above 255 has its three bytes in ``WIRE``, -1 if it has none."""',
+            '    """Where an id above 255 has its three bytes in ``WIRE``; the last',
+            '    three, zeros, for an id it lacks (or a negative one)."""',
             "    h = WIRE_HIGH",
             "    k = 0",
             "    n = len(h)",
             "    while k < n:",
             "        if h[k] | (h[k + 1] << 8) | (h[k + 2] << 16) == msgid:",
-            "            return %d + k" % (3 * WIRE_DENSE),
+            "            break",
             "        k += 3",
-            "    return -1",
+            "    return %d + k" % (3 * WIRE_DENSE),
             "", "",
             "def __getattr__(name):",
             '    """``TABLE`` (host side): the full table, from ``table.py``."""',

@@ -82,7 +82,7 @@ class Writer:
         ``seq`` overrides the sequence number (tests); by default it counts up.
         """
         w = 3 * msgid if 0 <= msgid < _W_DENSE else wire_high(msgid)
-        if w < 0 or not WIRE[w + _W_MAX_LEN] or (self.mavlink1 and msgid > 255):
+        if not WIRE[w + _W_MAX_LEN] or (self.mavlink1 and msgid > 255):
             raise KeyError(msgid)   # (MAVLink 1 carries ids 0-255 only)
         b = self.buf
         signed = False

@@ -6,10 +6,11 @@ The board's table is ``WIRE``, one bytes constant, three bytes a message:
 ``WIRE[w + WIRE_CRC_EXTRA]`` its CRC_EXTRA, ``WIRE[w + WIRE_MIN_LEN]`` its
 MAVLink 1 payload (base fields), ``WIRE[w + WIRE_MAX_LEN]`` its MAVLink 2
 payload (with extensions), 0 for an unknown id. ``w`` is ``3 * m`` for an
-id ``m`` below ``WIRE_DENSE``, ``wire_high(m)`` above (-1: unknown): the
-few ids above 255 are listed in ``WIRE_HIGH`` (three bytes each, little-
-endian) and their three bytes follow the dense part in that order, so a
-high id costs six bytes, not three times its value. A bytes constant is
+id ``m`` below ``WIRE_DENSE``, ``wire_high(m)`` above: the few ids above
+255 are listed in ``WIRE_HIGH`` (three bytes each, little-endian), their
+three bytes follow the dense part in that order, then three zeros, where
+``wire_high`` points for an id it lacks; so a high id costs six bytes, not
+three times its value, and every caller tests one byte. A bytes constant is
 one object with no children for the collector, and from the ROMFS
 partition its data stays in flash (the tuples of names and formats it
 replaces were 140 objects on the heap and overflowed the collector's
@@ -193,7 +194,7 @@ CURRENT_MODE_FMT = "<IIB"
 CURRENT_MODE_LEN = const(9)
 
 # CRC_EXTRA, MAVLink 1 and MAVLink 2 payload lengths of message ids 0-255
-# (three zeros: unknown), then of WIRE_HIGH's ids (256, 435, 436)
+# (three zeros: unknown), then of WIRE_HIGH's ids (256, 435, 436), then three zeros
 WIRE = (
     b"\x32\x09\x09\x7c\x1f\x2b\x89\x0c\x0c\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x59\x06\x06\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
     b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xd6\x14\x14\x9f\x02\x02\xdc\x19\x19\xa8\x17\x17\x00\x00\x00\x00\x00\x00\xaa\x16\x18\x00\x00\x00\x00\x00\x00\x73\x0e\x10\x27\x1c\x1c\xf6\x20\x30"
@@ -211,22 +212,23 @@ WIRE = (
     b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
     b"\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
     b"\x00\x00\x00\x00\x00\x00\x68\x34\x3c\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xaa\x12\x12\x2c\x12\x12\x53\x33\x36\x00\x00\x00\x00\x00\x00"
-    b"\x47\x2a\x2a\x86\x2e\x2e\xc1\x09\x09"
+    b"\x47\x2a\x2a\x86\x2e\x2e\xc1\x09\x09\x00\x00\x00"
 )
 #: The ids above 255 WIRE holds, three bytes each (little-endian)
 WIRE_HIGH = b"\x00\x01\x00\xb3\x01\x00\xb4\x01\x00"
 
 
 def wire_high(msgid):
-    """Where an id above 255 has its three bytes in ``WIRE``, -1 if it has none."""
+    """Where an id above 255 has its three bytes in ``WIRE``; the last
+    three, zeros, for an id it lacks (or a negative one)."""
     h = WIRE_HIGH
     k = 0
     n = len(h)
     while k < n:
         if h[k] | (h[k + 1] << 8) | (h[k + 2] << 16) == msgid:
-            return 768 + k
+            break
         k += 3
-    return -1
+    return 768 + k
 
 
 def __getattr__(name):

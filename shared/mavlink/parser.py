@@ -172,7 +172,7 @@ class Parser:
                     # checks the same and counts).
                     msgid = data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16)
                     w = 3 * msgid if msgid < _W_DENSE else wire_high(msgid)
-                    if w >= 0 and WIRE[w + _W_MAX_LEN]:
+                    if WIRE[w + _W_MAX_LEN]:
                         plen = data[i + 1]
                         flags = data[i + 2]
                         k = _HEADER_V2 + 2 + plen + (_SIGNATURE_LEN if flags & 1 else 0)
@@ -315,7 +315,7 @@ class Parser:
                     flags = 0
                     msgid = buf[5]
                 w = 3 * msgid if msgid < _W_DENSE else wire_high(msgid)
-                if w < 0 or not WIRE[w + _W_MAX_LEN]:
+                if not WIRE[w + _W_MAX_LEN]:
                     self.unknown += 1
                     self._reject()
                     continue
@@ -395,8 +395,7 @@ class Parser:
                 return -1
             if n > s + 8:
                 m = buf[s + 7] | (buf[s + 8] << 8)
-                w = 3 * m if m < _W_DENSE else wire_high(m)
-                if w < 0 or not WIRE[w + _W_MAX_LEN]:
+                if not WIRE[(3 * m if m < _W_DENSE else wire_high(m)) + _W_MAX_LEN]:
                     return -1
         else:
             hdr = _HEADER_V1
