@@ -297,10 +297,10 @@ class Vehicle:
                              record, cause, self.clock)
         print(self.resume.describe())
         # the flight log beside the parameters: /logs on the board
-        files = LogFiles(self.store.fs, root=path[:path.rfind("/")] + "/logs")
+        files = LogFiles(self.store.fs, root=path[:path.rfind("/") + 1] + "logs")
         self.log = FlightLog(self.params, t, files, self.clock.ticks_us, self.clock.ticks_diff,
                              refresh=reporter.refresh, fixes=link.ep)
-        link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased)
+        link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased, hidden=self.log.prepared)
         link.ep.on_text = self.log.msg
 
     def build_loop(self, reset_cause=0):
@@ -337,7 +337,8 @@ class Vehicle:
     def log_step(self):
         """The flight log's task: records to RAM, to flash when harmless."""
         m = self.modes
-        self.log.step(m.armed, m.mode)
+        # MODE records carry HEARTBEAT's custom_mode, as ArduPilot's
+        self.log.step(m.armed, modes_mod.CUSTOM[m.mode])
 
     def control(self):
         """The control task: the flight step, then the dive's state kept

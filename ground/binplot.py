@@ -25,15 +25,10 @@ def is_dataflash(data: bytes) -> bool:
 
 
 def _mode_name(number: int) -> str:
+    """RoboRay's name of a MODE record's number (HEARTBEAT's custom_mode, as ArduPilot logs it)."""
     from roboray.shared import modes
 
-    names = getattr(modes, "NAMES", ())
-    by_number = getattr(modes, "NAME_OF", None)
-    if isinstance(by_number, dict) and number in by_number:
-        return by_number[number]
-    if 0 <= number < len(names):
-        return names[number]
-    return "mode %d" % number
+    return modes.custom_name(number)
 
 
 def read(data: bytes) -> dict[str, list[Any]]:
@@ -68,7 +63,7 @@ def plot(data: bytes, out_png: str, title: str = "") -> dict[str, int]:
     if not any(k in r for k in ("ATT", "EST", "BARO")):
         raise ValueError("no ATT, EST or BARO records: not a RoboRay flight log, or an empty one")
     every = [m.TimeUS for v in r.values() for m in v if hasattr(m, "TimeUS")]
-    t0 = min(every) if every else 0
+    t0 = 0      # TimeUS counts from the board's start, as MAVExplorer shows it
 
     def t(ms: list[Any]) -> list[float]:
         return [(m.TimeUS - t0) / 1e6 for m in ms]
@@ -108,7 +103,8 @@ def plot(data: bytes, out_png: str, title: str = "") -> dict[str, int]:
         ax.plot(t(att), [getattr(m, k) for m in att], label=k.lower())
     ax.set_ylabel("attitude (deg)")
     ax2 = ax.twinx()
-    ax2.plot(t(att), [m.Yaw for m in att], color="C2", lw=0.8, label="yaw (right)")
+    # (dots: a heading near north jumps between 0 and 360)
+    ax2.plot(t(att), [m.Yaw for m in att], ".", ms=1.5, color="C2", label="yaw (right)")
     ax2.set_ylabel("yaw (deg)")
     ax2.set_ylim(0, 360)
     lines = ax.get_lines() + ax2.get_lines()
@@ -130,7 +126,8 @@ def plot(data: bytes, out_png: str, title: str = "") -> dict[str, int]:
         a = (m.TimeUS - t0) / 1e6
         b = (modes[i + 1].TimeUS - t0) / 1e6 if i + 1 < len(modes) else (end - t0) / 1e6
         ax.barh(1, b - a, left=a, height=0.6, color="C%d" % (m.ModeNum % 10), alpha=0.6)
-        ax.text(a, 1, " " + _mode_name(m.ModeNum), va="center", fontsize=8)
+        if b - a > 0.03 * ((end - t0) / 1e6):     # (a label for a span it fits in)
+            ax.text(a, 1, " " + _mode_name(m.ModeNum), va="center", fontsize=8)
     for m in r.get("EV", []):
         x = (m.TimeUS - t0) / 1e6
         ax.axvline(x, color="k", lw=0.8, ls=":")
@@ -141,7 +138,7 @@ def plot(data: bytes, out_png: str, title: str = "") -> dict[str, int]:
     ax.set_yticks([1, 1.7])
     ax.set_yticklabels(["mode", "failsafe"])
     ax.set_ylim(0, 2.2)
-    ax.set_xlabel("time since the log began (s)")
+    ax.set_xlabel("time since the board started (s)")
     fig.suptitle(title or "RoboRay flight log")
     fig.tight_layout()
     fig.savefig(out_png, dpi=100)

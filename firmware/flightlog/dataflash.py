@@ -218,38 +218,60 @@ class Writer:
                              r.name.encode(), r.fmt.encode(), r.labels.encode())
         return o
 
-    def header(self, records):
-        """FMT for FMT, UNIT, MULT and FMTU, the UNIT and MULT tables, then
-        FMT and FMTU for each of ``records``. Returns False when the buffer
-        is too small for it."""
-        # FMT describes itself without TimeUS, as ArduPilot's does.
-        o = self.reserve(FMT_LENGTH)
-        if o < 0:
-            return False
-        struct.pack_into(_FMT_PACK, self.buf, o, HEAD1, HEAD2, FMT_TYPE, FMT_TYPE, FMT_LENGTH,
-                         b"FMT", b"BBnNZ", b"Type,Length,Name,Format,Columns")
-        for r in (UNIT, MULT, FMTU):
-            if self._fmt(r) < 0:
+    def header_items(self, records):
+        """How many steps ``header_item`` takes for ``records``."""
+        return 4 + len(UNITS) + len(MULTS) + len(records)
+
+    def header_item(self, k, records):
+        """Step ``k`` of a log's header: FMT for FMT, UNIT, MULT and FMTU, the
+        UNIT and MULT tables, then FMT and FMTU for each of ``records``
+        (DFReader resolves a FMTU with the UNIT and MULT it has read).
+        False when the buffer has no room. A header in steps lets a log
+        start without stalling a slot."""
+        buf = self.buf
+        if k == 0:
+            # FMT describes itself without TimeUS, as ArduPilot's does.
+            o = self.reserve(FMT_LENGTH)
+            if o < 0:
                 return False
-        for uid, label in UNITS:
+            struct.pack_into(_FMT_PACK, buf, o, HEAD1, HEAD2, FMT_TYPE, FMT_TYPE, FMT_LENGTH,
+                             b"FMT", b"BBnNZ", b"Type,Length,Name,Format,Columns")
+            return True
+        k -= 1
+        if k < 3:
+            return self._fmt((UNIT, MULT, FMTU)[k]) >= 0
+        k -= 3
+        if k < len(UNITS):
+            uid, label = UNITS[k]
             o = self.reserve(UNIT.length)
             if o < 0:
                 return False
-            struct.pack_into(UNIT.pack, self.buf, o, HEAD1, HEAD2, UNIT.type_id,
+            struct.pack_into(UNIT.pack, buf, o, HEAD1, HEAD2, UNIT.type_id,
                              self.t0, self.t1, self.t2, self.t3, ord(uid), label.encode())
-        for mid, mult in MULTS:
+            return True
+        k -= len(UNITS)
+        if k < len(MULTS):
+            mid, mult = MULTS[k]
             o = self.reserve(MULT.length)
             if o < 0:
                 return False
-            struct.pack_into(MULT.pack, self.buf, o, HEAD1, HEAD2, MULT.type_id,
+            struct.pack_into(MULT.pack, buf, o, HEAD1, HEAD2, MULT.type_id,
                              self.t0, self.t1, self.t2, self.t3, ord(mid), mult)
-        for r in records:
-            if self._fmt(r) < 0:
+            return True
+        r = records[k - len(MULTS)]
+        if self._fmt(r) < 0:
+            return False
+        o = self.reserve(FMTU.length)
+        if o < 0:
+            return False
+        struct.pack_into(FMTU.pack, buf, o, HEAD1, HEAD2, FMTU.type_id,
+                         self.t0, self.t1, self.t2, self.t3, r.type_id, r.units.encode(), r.mults.encode())
+        return True
+
+    def header(self, records):
+        """The whole header at once (``header_item`` for every step); False
+        when the buffer is too small for it."""
+        for k in range(self.header_items(records)):
+            if not self.header_item(k, records):
                 return False
-            o = self.reserve(FMTU.length)
-            if o < 0:
-                return False
-            struct.pack_into(FMTU.pack, self.buf, o, HEAD1, HEAD2, FMTU.type_id,
-                             self.t0, self.t1, self.t2, self.t3, r.type_id,
-                             r.units.encode(), r.mults.encode())
         return True

@@ -116,15 +116,23 @@ class LogFiles:
                 self.fs.remove(self.path(n))
                 self.removed += 1
 
-    def create(self, first, buf_bytes):
+    def create(self, first, buf_bytes, reuse_at_most=0):
         """Start the next log with ``first`` (its header: bytes-like), after
-        making room; returns its number."""
+        making room; returns its number. ``reuse_at_most``: when the newest
+        log holds no more than that many bytes (a log prepared on deck for
+        a dive that never came: its header alone), its number is used
+        again, so a board switched on and off does not fill the flash
+        with empty logs."""
         self._ensure_root()
         want = self.total_bytes() * MIN_FREE_FRACTION
         if want < 2 * buf_bytes:
             want = 2 * buf_bytes
         self.make_room(want)
-        n = self.last_number() % MAX_NUMBER + 1
+        last = self.last_number()
+        if last and 0 <= self.size(last) <= reuse_at_most:
+            n = last
+        else:
+            n = last % MAX_NUMBER + 1
         # a leftover of the same number (a wrap) is the oldest log: replaced
         f = self.fs.open(self.path(n), "wb")
         try:

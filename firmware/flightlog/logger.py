@@ -8,24 +8,28 @@ records (``dataflash.py``) into a RAM ring and moves them to a numbered
 Why RAM first: writing the Pico 2's flash suspends execution from it, and
 littlefs erases a 4 kB sector (45 ms) for each new block it fills, so an
 append in a flight slot would be a 50 ms stall. Records therefore go to
-flash only while the vehicle is **still** (the estimator's speed under
-``STILL_MPS`` on every axis for ``STILL_S``: held at the surface before the
-release, or resting on the bottom) or **disarmed**, one chunk of at most
+flash only while the vehicle is **disarmed**, or armed and **resting on
+the bottom** (the estimator's speed under ``STILL_MPS`` on every axis for
+``STILL_S``, deeper than ``REST_DEPTH_M``: armed at the surface it may be
+let go at any moment), one chunk of at most
 ``CHUNK`` bytes every ``FLUSH_EVERY`` calls, each announced to the
 scheduler as the planned stall it is (``expect_delay``, the twin charges
-the same stall). A new log starts at arming: its header and parameters go
-to flash at once when the vehicle is still then (on deck), so a dive that
-never comes to rest still leaves a readable log; a log started by a reset
-in the water waits for the vehicle to rest.
+the same stall). Arming writes nothing: the next dive's log is prepared on
+deck (disarmed and still: its header and parameters on flash, a few
+records a call), so a dive that never comes to rest still leaves a
+readable log; parameters changed after it was prepared are recorded again
+at arming. A log started by a reset in the water waits for the vehicle to
+rest. A prepared log no dive used is used again by the next one.
 
-What the ring holds (default ``LOG_FILE_BUFSIZE`` 64 kB, every record
-enabled): the records below come at ~2.6 kB/s, so ~18 s of dive at full
-rate; with less than a quarter free the recording thins (ATT and IMU to
-5 Hz; MAG, RCOU and WING stop: ~1 kB/s) for ~16 s more; when full, new
-records are dropped (never old ones), counted (PM ``Drop``) and told in a
-MSG at the next flush. Events (MODE, MSG, EV, ERR, FIX) are never thinned.
-The thesis's 10 m drop takes ~25 s; a deeper dive wants a bigger ring
-(its cost: the collector scans it, ``docs/design/flight-log.md``).
+What the ring holds (default ``LOG_FILE_BUFSIZE`` 80 kB, every record
+enabled): the records below come at ~2.4 kB/s, so ~30 s of dive at full
+rate, the thesis's 10 m drop (~25 s) and its rest before the flush; with
+less than a tenth free the recording thins (ATT and IMU to 5 Hz; MAG,
+RCOU and WING stop); when full, new records are dropped (never old ones),
+counted (PM ``Drop``) and told in a MSG at the next flush. Events (MODE,
+MSG, EV, ERR, FIX) are never thinned. A deeper dive wants a bigger ring;
+its cost is in the collector, which scans it
+(``docs/design/flight-log.md``).
 
 Records and rates (the log task runs at 50 Hz; ``LOG_BITMASK`` bit in
 brackets):
@@ -35,10 +39,10 @@ ATT     25 Hz   roll, pitch, yaw (deg) [0]: the wings move the attitude
                 within ~0.2 s, so 25 Hz resolves a manoeuvre
 IMU     25 Hz   gyro (rad/s), accelerometer (m/s/s): the mean of the 104 Hz
                 FIFO over the last slot [1]
-MAG     10 Hz   field (Gauss) [2]: the heading changes over seconds
+MAG      5 Hz   field (Gauss) [2]: the heading changes over seconds
 BARO    10 Hz   Alt (m, minus the depth), pressure (Pa), temperature [3]
-RCOU    10 Hz   servo pulses (us) [4]
-WING    10 Hz   commanded wing angles (deg) [4]: the servos report no angle,
+RCOU     5 Hz   servo pulses (us) [4]
+WING     5 Hz   commanded wing angles (deg) [4]: the servos report no angle,
                 so the command is what is known
 EST     10 Hz   position, velocity (NED, m, m/s) and target [5]: the glide
                 settles in seconds
@@ -66,7 +70,7 @@ except ImportError:  # CPython
 
 PARAMS = (
     ("LOG_BITMASK", TYPE_INT32, 255, 0, 255),        # records kept (bits above)
-    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 64, 8, 160),    # kB of RAM for the ring
+    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 80, 8, 160),    # kB of RAM for the ring
     ("LOG_DISARMED", TYPE_UINT8, 0, 0, 1),           # 1: log while disarmed too
 )
 
@@ -108,18 +112,18 @@ ERR_FAILSAFE_BASE = const(100)
 CHUNK = const(4096)            # bytes a flush writes at most: one littlefs block
 FLUSH_EVERY = const(10)        # calls between flushes (0.2 s at 50 Hz: 20 kB/s)
 STILL_MPS = 0.05
+REST_DEPTH_M = 0.5             # armed and still deeper than this: on the bottom
 _NOT_STILL = -0.05             # -STILL_MPS, made once (a negation boxes a float each time)
 STILL_S = 3
 _CALL_HZ = const(50)
 _STILL_CALLS = const(150)      # STILL_S at 50 Hz
-_THIN_FRACTION = const(4)      # thin out below a quarter free
+_THIN_FRACTION = const(10)     # thin out below a tenth free
 #: The stall a chunk's write costs at most, announced first (ms): a sector
 #: erase (45 ms), 16 page programs (6.4 ms), a close's metadata commit
 #: and, now and then, a metadata compaction (another erase).
 CHUNK_STALL_MS = const(110)
-#: Packing a new log's header and parameters (~130 records) in RAM: ~30 ms
-#: of the interpreter on a Pico 2 (bench board, the log task's max at arming).
-START_STALL_MS = const(60)
+#: Header and parameter records a call packs while a log starts.
+HEADER_PER_CALL = const(6)
 #: A new log's creation: header and parameters (~6 kB: two sectors), two
 #: files created (the log, LASTLOG.TXT), old logs maybe removed.
 CREATE_STALL_MS = const(300)
@@ -172,6 +176,13 @@ class FlightLog:
         self.logging = False
         self._flush_wait = 0
         self._create = False          # the log's file is still to be created (first flush)
+        self._hdr = -1                # the next header step of a log starting, -1: none
+        self._parm = -1               # the next PARM of a prepared log's parameters again, -1: none
+        self._prep = False            # the log is the next dive's, prepared on deck
+        self._prep_version = -1
+        self._hdr_bytes = 0
+        self._hdr_end = 0
+        self._reason = ""
         self._fix_seen = 0 if fixes is None else fixes.fix_count
         self._fs_flags = 0
         self._told_dropped = 0
@@ -188,34 +199,95 @@ class FlightLog:
         self.w.stamp(self.clock)
 
     # ------------------------------------------------------------ start
-    def start(self, reason_text):
-        """A new log: header and parameters into the ring; its file is
-        created by the next flush (at once when the vehicle is still: on
-        deck at arming; after a reset in the water, once it rests)."""
+    def start(self, reason_text, prepare=False):
+        """A new log: its header and parameters go into the ring over the
+        next calls (``HEADER_PER_CALL`` records a call: packing ~130 at
+        once took ~25 ms of a slot on a Pico 2); its file is created by the
+        first flush after that. ``prepare``: the next dive's log, made on
+        deck while disarmed (``step``), so that arming writes nothing."""
         w = self.w
         if self.files.current and w.pending():
             self._drain()           # the last log's tail first: it is still
         w.clear()
-        if self.expect_delay is not None:
-            self.expect_delay(START_STALL_MS)
+        self._reason = reason_text
+        self._hdr = 0
+        self._hdr_end = w.header_items(RECORDS) + self.params.count()
+        self._prep = prepare
+        self._prep_version = self.params.version
+        self.logging = not prepare
+        self.logs_started += 1
+
+    def _arm(self):
+        """Armed: the prepared log goes on (parameters changed since it was
+        made are recorded again), or a new one starts."""
+        self._still = 0             # still again for STILL_S before anything goes to flash
+        self._resting = False       # (and no "moving" event for the lift from the deck)
+        if self._prep:
+            self._prep = False
+            self.logging = True
+            if self._hdr >= 0:
+                return              # its header is still being packed: EV ARMED follows it
+            if self.params.version != self._prep_version:
+                self._parm = 0      # every parameter again, a few a call
+            self.msg("armed")
+            if self._mode >= 0:
+                self.mode(self._mode)
+            self.event(EV_ARMED)
+        else:
+            self.start("armed: log started")     # EV ARMED once its header is in
+
+    def _header_steps(self):
+        w = self.w
         self._now()
-        if not w.header(RECORDS):
-            return False
+        k = self._hdr
+        end = self._hdr_end
+        n_fmt = end - self.params.count()
+        stop = k + HEADER_PER_CALL
+        if stop > end:
+            stop = end
         p = self.params
-        for i in range(p.count()):
-            o = w.reserve(PARM.length)
-            if o < 0:
-                break
-            struct.pack_into(PARM.pack, w.buf, o, HEAD1, HEAD2, PARM.type_id, w.t0, w.t1, w.t2, w.t3,
-                             p.name_bytes(i), p.get(i), p.default(i))
-        self.logging = True
+        while k < stop:
+            if k < n_fmt:
+                w.header_item(k, RECORDS)
+            else:
+                i = k - n_fmt
+                o = w.reserve(PARM.length)
+                if o >= 0:
+                    struct.pack_into(PARM.pack, w.buf, o, HEAD1, HEAD2, PARM.type_id, w.t0, w.t1, w.t2, w.t3,
+                                     p.name_bytes(i), p.get(i), p.default(i))
+            k += 1
+        if k < end:
+            self._hdr = k
+            return
+        # the header is whole: records may follow, and the file be made
+        self._hdr = -1
+        self._hdr_bytes = w.pending()
         self._create = True
         self._flush_wait = 0
-        self.logs_started += 1
-        self.msg(reason_text)
+        if self._prep:
+            return              # a prepared log: its first records come at arming
+        self.msg(self._reason)
         if self._mode >= 0:
             self.mode(self._mode)     # the mode the log starts in
-        return True
+        if self.armed:
+            self.event(EV_ARMED)
+
+    def _parm_steps(self):
+        w = self.w
+        p = self.params
+        self._now()
+        i = self._parm
+        end = p.count()
+        stop = i + HEADER_PER_CALL
+        if stop > end:
+            stop = end
+        while i < stop:
+            o = w.reserve(PARM.length)
+            if o >= 0:
+                struct.pack_into(PARM.pack, w.buf, o, HEAD1, HEAD2, PARM.type_id, w.t0, w.t1, w.t2, w.t3,
+                                 p.name_bytes(i), p.get(i), p.default(i))
+            i += 1
+        self._parm = i if i < end else -1
 
     def _drain(self):
         """Everything waiting to flash now (at arming: the previous log's end)."""
@@ -234,6 +306,8 @@ class FlightLog:
 
     # ------------------------------------------------------------ events
     def msg(self, text):
+        if self._hdr >= 0:
+            return              # (before the header is whole: DFReader would not know MSG)
         w = self.w
         o = w.reserve(MSG.length)
         if o >= 0:
@@ -242,7 +316,7 @@ class FlightLog:
                              text if isinstance(text, bytes) else text.encode())
 
     def mode(self, number, reason=0):
-        if not self.logging:
+        if not self.logging or self._hdr >= 0:
             return
         w = self.w
         o = w.reserve(MODE.length)
@@ -252,7 +326,7 @@ class FlightLog:
                              number, number, reason)
 
     def event(self, ev):
-        if not self.logging:
+        if not self.logging or self._hdr >= 0:
             return
         w = self.w
         o = w.reserve(EV.length)
@@ -268,9 +342,17 @@ class FlightLog:
                              subsys, code)
 
     # ------------------------------------------------------------ the task
+    def prepared(self):
+        """The number of the log prepared for the next dive (0: none): not a
+        dive's log yet, so a log list leaves it out."""
+        return self.files.current if self._prep else 0
+
     def erased(self):
         """The logs were erased (LOG_ERASE, disarmed): nothing waits for a file any more."""
         self.w.clear()
+        self._hdr = -1
+        self._parm = -1
+        self._prep = False
         self.files.current = 0
         self._create = False
         self.logging = False
@@ -285,14 +367,16 @@ class FlightLog:
         if armed != self.armed:
             self.armed = armed
             if armed:
-                self.start("armed: log started")
-                self.event(EV_ARMED)
+                self._arm()
             else:
                 self.event(EV_DISARMED)
                 if not self.params.get_int(self._i_disarmed):
                     self.stop()
-        elif not self.logging and not self.files.current and self.params.get_int(self._i_disarmed):
-            self.start("logging while disarmed")
+        elif not self.logging and not self.files.current and not self._prep and not self._create:
+            if self.params.get_int(self._i_disarmed):
+                self.start("logging while disarmed")
+            elif self._still >= _STILL_CALLS:
+                self.start("prepared on deck", prepare=True)
         n = self._n + 1
         if n >= _CALL_HZ:
             n = 0
@@ -305,8 +389,14 @@ class FlightLog:
                 self._still += 1
         else:
             self._still = 0
-        resting = self._still >= _STILL_CALLS
-        if self.logging:
+        # armed, only resting on the bottom is harmless: still at the
+        # surface, the vehicle may be let go any moment
+        resting = self._still >= _STILL_CALLS and (not armed or t.env[0] >= REST_DEPTH_M)
+        if self._hdr >= 0:
+            self._header_steps()
+        elif self._parm >= 0:
+            self._parm_steps()
+        elif self.logging:
             self._records(n)
             if resting != self._resting:
                 self.event(EV_LAND_COMPLETE if resting else EV_NOT_LANDED)
@@ -347,7 +437,7 @@ class FlightLog:
                                      0, m[3], m[4], m[5], m[0], m[1], m[2])
         k = n % 5
         if k == 0:
-            if mask & B_MAG and not thin:
+            if mask & B_MAG and not thin and n % 10 == 0:     # 5 Hz
                 if refresh is not None:
                     refresh(2)
                 m = t.imu
@@ -366,7 +456,7 @@ class FlightLog:
                     struct.pack_into(BARO.pack, w.buf, o, HEAD1, HEAD2, BARO.type_id, w.t0, w.t1, w.t2, w.t3,
                                      0, -env[0], env[1], env[2])
         elif k == 2:
-            if mask & B_SERVO and not thin:
+            if mask & B_SERVO and not thin and n % 10 == 2:   # 5 Hz
                 if refresh is not None:
                     refresh(3)          # servos
                 u = t.servo_us
@@ -438,7 +528,7 @@ class FlightLog:
             return
         w = self.w
         if not harmless or not (self.files.current or self._create) or not w.pending():
-            if not self.logging and self.files.current and not w.pending():
+            if not self.logging and not self._prep and self.files.current and not w.pending():
                 self.files.current = 0      # the log is complete on flash
             return
         if self.expect_delay is not None:
@@ -448,7 +538,7 @@ class FlightLog:
         if self._create:
             self._create = False
             try:
-                self.files.create(mv[o:o + n], w.size)
+                self.files.create(mv[o:o + n], w.size, self._hdr_bytes if self._prep else 0)
                 ok = True
             except OSError:
                 self.files.write_errors += 1

@@ -4,7 +4,8 @@ What MAVProxy's ``log list`` / ``log download``, QGroundControl's log
 download and ``roboray-ground log`` speak (mavlink.io, "Log transfer";
 ArduPilot's ``AP_Logger_MAVLinkLogTransfer``):
 
-- LOG_REQUEST_LIST -> one LOG_ENTRY a log in the asked id range (``id`` is
+- LOG_REQUEST_LIST -> one LOG_ENTRY a log in the asked id range (the log
+  prepared for the next dive, its header alone, left out; ``id`` is
   the file's number, ``00000007.BIN`` is log 7; ``num_logs`` how many
   there are, ``last_log_num`` the newest number, ``size`` in bytes,
   ``time_utc`` 0: the board keeps no calendar), or one entry with
@@ -55,14 +56,17 @@ class LogTransfer:
     """Log list, download and erase for endpoint ``ep`` over ``files`` (``files.LogFiles``).
 
     ``armed()`` says whether the vehicle is armed; ``on_erase()`` (the
-    flight log's) is called after the logs were erased."""
+    flight log's) is called after the logs were erased; ``hidden()`` gives
+    a log number to leave out of lists (the flight log's ``prepared``: the
+    next dive's, its header alone), 0 for none."""
 
-    def __init__(self, ep, files, armed, on_erase=None, expect_delay=None):
+    def __init__(self, ep, files, armed, on_erase=None, expect_delay=None, hidden=None):
         self.ep = ep
         self.files = files
         self.armed = armed
         self.on_erase = on_erase
         self.expect_delay = expect_delay
+        self.hidden = hidden
         self._numbers = array("H", [0] * _MAX_LOGS)
         self._n = 0                 # logs in _numbers
         self._entry_next = -1       # index of the next LOG_ENTRY to send, -1: none
@@ -126,8 +130,9 @@ class LogTransfer:
     def _list(self, start, end):
         self._stop()
         n = 0
+        hide = self.hidden() if self.hidden is not None else 0
         for k in self.files.numbers():
-            if n < _MAX_LOGS:
+            if n < _MAX_LOGS and k != hide:
                 self._numbers[n] = k
                 n += 1
         self._n = n

