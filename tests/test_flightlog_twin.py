@@ -100,3 +100,30 @@ def test_a_dive_log_is_downloaded_over_the_radio_resumed_after_a_cut_and_erased(
     gaps = [b - a for a, b in zip(att, att[1:])]
     assert min(gaps) >= 30_000 and max(gaps) <= 150_000
     assert len(att) >= 0.75 * (att[-1] - att[0]) / 40_000
+
+
+def test_a_watchdog_reset_mid_dive_leaves_a_readable_log_and_a_new_one_after_it(tmp_path):
+    """target-landing, the loop hung at 20 s (the watchdog resets the board):
+    the log prepared on deck stays readable (what the RAM held is lost with
+    the reset), and the resumed dive's log is made once the vehicle rests on
+    the bottom, with its records from the reset to the end."""
+    from roboray.sim.twin import faults
+    from roboray.sim.twin.runner import run
+
+    r = run(Options(scenario="target-landing", interpreter="cpython", faults=[faults.parse("watchdog@20")],
+                    board_fs=str(tmp_path)))
+    assert r["resets"] == 1 and r["landing_error_m"] < 0.5
+    logs = sorted((tmp_path / "logs").glob("*.BIN"))
+    assert [p.name for p in logs] == ["00000001.BIN", "00000002.BIN"]
+    first = Counter()
+    log = DFReader.DFReader_binary(str(logs[0]))
+    while (m := log.recv_match()) is not None:
+        first[m.get_type()] += 1
+    assert first["PARM"] > 50 and first["FMT"] > 10        # readable: its header and parameters
+    second = DFReader.DFReader_binary(str(logs[1]))
+    att = []
+    while (m := second.recv_match()) is not None:
+        if m.get_type() == "ATT":
+            att.append(m.TimeUS / 1e6)
+    # the board's clock restarts at the reset (about 21 s): from the resumed dive to its rest
+    assert att and att[-1] - att[0] > 10.0
