@@ -56,6 +56,8 @@ def list_logs(link: Any, timeout: float = 5.0) -> list[LogEntry]:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         m = link.recv(0.2)
+        if m is not None and m.get_type() == "STATUSTEXT" and m.text.startswith("logs:"):
+            raise LinkError("the vehicle refused the log list: %s" % m.text[5:].strip())
         if m is None or m.get_type() != "LOG_ENTRY":
             continue
         count = m.num_logs
