@@ -4,9 +4,12 @@ and resumed, byte for byte what the board keeps, and read by pymavlink's DFReade
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import threading
 import time
 from collections import Counter
+from pathlib import Path
 
 from pymavlink import DFReader
 
@@ -85,6 +88,10 @@ def test_a_dive_log_is_downloaded_over_the_radio_resumed_after_a_cut_and_erased(
     assert got["after_erase"] == []
     assert [p.name for p in (tmp_path / "board" / "logs").glob("*.BIN")] == ["00000001.BIN"]
     assert (tmp_path / "board" / "logs" / "00000001.BIN").stat().st_size < out.stat().st_size
+    # pymavlink's mavlogdump.py dumps it, every line a record
+    dump = subprocess.run([sys.executable, str(Path(sys.executable).with_name("mavlogdump.py")), "--types", "ATT",
+                           str(out)], capture_output=True, text=True, timeout=60)
+    assert dump.returncode == 0 and dump.stdout.count("ATT {TimeUS") > 100
     log = DFReader.DFReader_binary(str(out))
     kinds = Counter()
     att = []
