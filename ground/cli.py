@@ -235,6 +235,15 @@ def do_mode(args: argparse.Namespace) -> None:
 DEEPEST_M = 300.0
 
 
+def _plausible_target(north: float, east: float, down: Optional[float]) -> None:
+    """A target within a glide's reach of the bottom at ``down`` (or of the
+    deepest a target may be), refused before the link opens."""
+    if down is not None:
+        check_target(north, east, down, 0.0, " (--down)")
+    else:
+        check_target(north, east, DEEPEST_M, 0.0, " (the deepest a target may be: give --down)")
+
+
 def do_target(args: argparse.Namespace) -> None:
     """Send the target after checking it is within reach: from the surface
     to ``--down`` when given; else to the deepest bottom before the link
@@ -242,10 +251,7 @@ def do_target(args: argparse.Namespace) -> None:
     from roboray.ground.link import LinkError
 
     north, east = args.north, args.east
-    if args.down is not None:
-        check_target(north, east, args.down, 0.0, " (--down)")
-    else:
-        check_target(north, east, DEEPEST_M, 0.0, " (the deepest a target may be: give --down)")
+    _plausible_target(north, east, args.down)
     link = _connect(args)
     try:
         bottom, whose = args.down, "--down"
@@ -297,10 +303,7 @@ def do_wp(args: argparse.Namespace) -> None:
             north, east = (number(a) for a in args.rest)
         except argparse.ArgumentTypeError as exc:
             raise UsageError("wp set: %s" % exc)
-        if args.down is not None:
-            check_target(north, east, args.down, 0.0, " (--down)")
-        else:
-            check_target(north, east, DEEPEST_M, 0.0, " (the deepest a target may be: give --down)")
+        _plausible_target(north, east, args.down)
     link = _connect(args)
     try:
         if args.action == "list":
