@@ -1,0 +1,162 @@
+"""A RoboRay you can build: every mass and volume from a part you can buy.
+
+Unlike ``reference.py`` (the thesis's vehicle, five numbers fitted to its
+tables), nothing here is fitted: ``PARTS`` lists what goes into the vehicle,
+and the model's inputs (total mass, the payload's height, radius and
+thickness) are sums over it, so the CG and the CB follow from the parts.
+Pass it to any command: ``roboray-sim vehicle --vehicle
+sim/vehicles/buildable.py --json``.
+
+What each number is, in the comments:
+
+- **part**: the maker's datasheet or listing (named), or the geometry of a
+  stock size times the material's handbook density;
+- **assumed**: not published; a measured or estimated value a builder should
+  replace with the scale reading of their own part (the file is meant to be
+  copied and edited);
+- **chosen**: a design decision (plate size, wing size, ballast thickness),
+  with the reason.
+
+Layout (body frame of ``sim/vehicle.py``: origin at the centre of the plate's
+mid-plane, z down, the dome on the -z side): a 3 mm 5052 aluminium plate
+carries a 100 mm acrylic dome; everything dry sits inside the dome on the
+plate; the four servos stand on the plate's edges outside the dome, each
+driving a wing of 3 mm rigid PVC hinged along that edge. The wings fold up
+beside the dome, never into it: the dome's rim (50 mm from the axis) is
+20 mm inside the hinges (70 mm).
+
+Depth: the vehicle is for pools and lakes to 10 m (the twin's scenarios go
+to 10 m). The servos limit it, not the dome: the HS-5086WP is rated IP67
+(immersion to 1 m for 30 min, IEC 60529); below that its output-shaft
+O-ring and case seams see 1 bar per 10 m and water creeps in over a dive.
+For 10 m, fill each servo with mineral oil (pressure-compensated, the common
+ROV practice: the oil has no air to compress, so the case sees no pressure
+difference) or accept re-sealing after a few dives. The oil's mass is
+inside the servo's envelope and within its listed mass's uncertainty. The
+dome (acrylic, 3 mm wall) fails near 29 bar by DeepSea's "Under Pressure"
+calculation for a 100 mm, 3 mm acrylic dome (philipmcgaw.com, "ROV
+viewport dome"); the Bar30 is rated to 30 bar (Blue Robotics).
+"""
+
+import math
+
+from roboray.sim.vehicle import VehicleParams
+
+# --------------------------------------------------------------- materials
+RHO_PVC = 1400.0        # kg/m^3, rigid (unplasticised) PVC sheet: 1.38-1.45 g/cm^3 (handbook range, e.g. Vink, Plastics)
+RHO_AL5052 = 2680.0     # kg/m^3, aluminium 5052-H32 (ASM handbook)
+RHO_ACRYLIC = 1190.0    # kg/m^3, cast PMMA (Evonik PLEXIGLAS datasheet: 1.19 g/cm^3)
+RHO_STEEL = 7850.0      # kg/m^3, structural steel S235 (EN 10025)
+
+# ----------------------------------------------------------------- geometry
+THICKNESS = 0.003       # m, chosen: 3 mm sheet for plate and wings (stock size of both)
+PLATE_SIDE = 0.140      # m, chosen: the dome (100 mm) plus a 13 mm servo and its wing hinge on each side
+WING_HEIGHT = 0.150     # m, chosen: hinge to tip; span 0.44 m tip to tip, the reference's 0.38 m scaled to a buildable plate
+DOME_OD = 0.100         # m, part: 100 mm clear acrylic hemisphere (ROV/CCTV viewport dome, philipmcgaw.com)
+DOME_WALL = 0.003       # m, part: "about 3 mm thick" (same source)
+
+TOP = -0.5 * THICKNESS  # z of the plate's top face, where the dome and the dry parts sit
+
+# Servo: Hitec HS-5086WP, digital, metal gear, IP67 (Hitec product page):
+# 29 x 13 x 30 mm, 21.9 g; 3.6 kg.cm (0.35 N m) and 0.17 s/60 deg at 6.0 V,
+# 3.0 kg.cm and 0.20 s/60 deg at 4.8 V. Laid on its side along the plate's
+# edge, its output shaft on the hinge line: 13 mm tall, centroid 6.5 mm up.
+SERVO_MASS = 0.0219             # kg, part
+SERVO_VOLUME = 0.029 * 0.013 * 0.030  # m^3, part: its box (the horn and cable gland add <1 cm^3)
+SERVO_HEIGHT = 0.0065           # m, part: half of its 13 mm width, lying flat
+# Hinge moment it must hold (check, not an input): a wing's normal force at
+# 0.3 m/s, 0.5 rho cd v^2 A = 0.6 N, at a third of its height (50 mm) is
+# 0.03 N m, a twelfth of the stall torque at 6 V.
+
+# --------------------------------------------------------------- dry parts
+# Everything inside the dome: (name, part number, mass kg, (x, y, z) m of its
+# centroid, source). Inside the dome they displace nothing of their own (the
+# dome's outer volume does), so only their mass and place enter the model.
+BATTERY_Z = TOP - 0.0093        # an 18650 lying on the plate: centroid at its radius, 9.3 mm up
+PARTS = (
+    ("ballast disc", "steel S235, 5 mm plate, 70 mm diameter", RHO_STEEL * math.pi * 0.035 ** 2 * 0.005,
+     (0.0, 0.0, TOP - 0.0025), "part: geometry x density; chosen thickness (trim with washers in the water)"),
+    ("battery cell 1", "Samsung INR18650-35E", 0.050, (0.0, -0.0105, BATTERY_Z - 0.005),
+     "part: Samsung SDI datasheet, 50.0 g max, 18.55 x 65.25 mm"),
+    ("battery cell 2", "Samsung INR18650-35E", 0.050, (0.0, 0.0105, BATTERY_Z - 0.005),
+     "part: as cell 1; the two in series (2S, 7.2 V nominal)"),
+    ("servo regulator", "Pololu D36V28F6 (6 V, 3.2 A step-down)", 0.0035, (0.022, 0.0, TOP - 0.020),
+     "assumed: a 18 x 23 mm board with headers, about 3.5 g"),
+    ("microcontroller", "Raspberry Pi Pico 2 (RP2350)", 0.0030, (-0.010, 0.0, TOP - 0.028),
+     "assumed: the datasheet gives 51 x 21 x 1 mm and no mass; a bare Pico weighs about 3 g"),
+    ("IMU", "Adafruit 4517 (LSM6DSOX + LIS3MDL)", 0.0020, (0.010, 0.005, TOP - 0.0285),
+     "assumed: a 25 x 18 mm STEMMA QT breakout, about 2 g"),
+    ("depth sensor", "Blue Robotics Bar30 (MS5837-30BA)", 0.0110, (0.0, 0.020, TOP - 0.010),
+     "assumed: M10 penetrator body and board, about 11 g; its port flush with the plate's underside"),
+    ("radio", "Holybro SiK Telemetry Radio V3, 433 MHz", 0.0285, (0.0, -0.024, TOP - 0.036),
+     "assumed: Holybro's listing, 28.5 g without antenna; the antenna inside the dome (acrylic passes RF)"),
+    ("dome flange and seal", "acrylic ring 100/84 mm x 6 mm + O-ring, bolted", RHO_ACRYLIC * math.pi * (0.050 ** 2 - 0.042 ** 2) * 0.006,
+     (0.0, 0.0, TOP - 0.003), "part: ring geometry x acrylic density (the clamp under the dome's rim)"),
+    ("wiring and fasteners", "JST/DuPont leads, M3 screws, standoffs", 0.015, (0.0, 0.0, TOP - 0.012),
+     "assumed: weigh yours"),
+)
+#: m, the IMU board's and the pressure port's positions from the parts table
+IMU_POSITION = PARTS[5][3]
+PRESSURE_PORT = (0.0, 0.020, 0.5 * THICKNESS)
+
+
+def _sheet_mass():
+    """Plate, wings, dome shell and servos: everything ``Vehicle`` builds itself."""
+    plate = RHO_AL5052 * PLATE_SIDE ** 2 * THICKNESS
+    wings = 4 * RHO_PVC * 0.5 * PLATE_SIDE * WING_HEIGHT * THICKNESS
+    r_in = 0.5 * DOME_OD - DOME_WALL
+    dome = RHO_ACRYLIC * (2.0 / 3.0) * math.pi * ((0.5 * DOME_OD) ** 3 - r_in ** 3)
+    return plate + wings + dome + 4 * SERVO_MASS
+
+
+def payload():
+    """The dry parts as the model's flat cylinder: mass, centroid height above
+    the mid-plane, and the radius and thickness whose second moments are the
+    parts' (I_z = m r^2 / 2 and the vertical spread m h^2 / 12)."""
+    m = sum(p[2] for p in PARTS)
+    cx = sum(p[2] * p[3][0] for p in PARTS) / m
+    cy = sum(p[2] * p[3][1] for p in PARTS) / m
+    cz = sum(p[2] * p[3][2] for p in PARTS) / m
+    radial = sum(p[2] * ((p[3][0] - cx) ** 2 + (p[3][1] - cy) ** 2) for p in PARTS)
+    vertical = sum(p[2] * (p[3][2] - cz) ** 2 for p in PARTS)
+    return {"mass": m, "centroid": (cx, cy, cz), "height": -cz,
+            "radius": math.sqrt(2.0 * radial / m), "thickness": math.sqrt(12.0 * vertical / m)}
+
+
+PAYLOAD = payload()
+
+VEHICLE = VehicleParams(
+    rho=1000.0,                 # kg/m^3, fresh water (sea water: --water sea, 1025)
+    g=9.80665,                  # m/s^2
+    cd=1.28,                    # flat plate normal to the flow, thesis sec. 2.2.1 (as the reference)
+    cf=0.0,                     # skin friction off, as the reference
+    plate_side=PLATE_SIDE,      # chosen, above
+    wing_height=WING_HEIGHT,    # chosen, above
+    thickness=THICKNESS,        # part: 3 mm sheet
+    plate_density=RHO_AL5052,   # part: 5052 aluminium plate (stiff, and its weight sits low)
+    wing_density=RHO_PVC,       # part: rigid PVC wings
+    k_center=math.sqrt(2.0) / 2.0,  # thesis Table 2.1, as the reference: a square plate
+    dlambda_center=1.0,
+    kx_center=0.41,
+    ky_center=0.41,
+    k_wing=0.91,                # thesis Table 2.1's triangle, as the reference
+    dlambda_wing=0.6,
+    kx_wing=0.75,
+    ky_wing=0.15,
+    dome_radius=0.5 * DOME_OD,  # part
+    dome_shell_thickness=DOME_WALL,  # part
+    dome_density=RHO_ACRYLIC,   # part
+    servo_mass=SERVO_MASS,      # part
+    servo_volume=SERVO_VOLUME,  # part
+    servo_height=SERVO_HEIGHT,  # part
+    total_mass=_sheet_mass() + PAYLOAD["mass"],  # sum of the parts
+    payload_radius=PAYLOAD["radius"],        # from the parts' spread
+    payload_thickness=PAYLOAD["thickness"],  # from the parts' spread
+    payload_height=PAYLOAD["height"],        # from the parts' centroid
+    servo_tau=0.05,             # s, assumed as the reference: the servo's position loop
+    servo_rate=math.radians(60.0) / 0.20,  # rad/s, part: 0.20 s/60 deg (at 4.8 V; 0.17 s at 6 V, slower loaded)
+    servo_min=0.0,              # rad, flat
+    servo_max=math.pi / 2,      # rad, folded up beside the dome
+    imu_position=IMU_POSITION,  # m, from the parts table
+    pressure_port=PRESSURE_PORT,  # m, the Bar30's face, flush with the plate's underside
+)
