@@ -1,0 +1,275 @@
+"""Docs that cannot rot (issue 19): every relative link in README.md and
+docs/ resolves, every ``roboray-*`` command line they show parses with the
+current command-line interfaces, the parameter reference is what its
+generator writes from the parameter definitions now, and nothing in the
+repository points outside it."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from roboray.tools import gen_param_docs
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = sorted([ROOT / "README.md", ROOT / "DEVELOPERS.md"] + list((ROOT / "docs").rglob("*.md")))
+
+#: The console scripts and the modules that build their parsers (pyproject.toml's [project.scripts]).
+CLIS = {
+    "roboray-sim": "roboray.sim.cli",
+    "roboray-ground": "roboray.ground.cli",
+    "roboray-flash": "roboray.tools.flash.cli",
+}
+
+_FENCE = re.compile(r"^\s*(```|~~~)")
+_LINK = re.compile(r"!?\[(?:[^\]\\]|\\.)*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+_REFERENCE = re.compile(r"^\s{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s|$)")
+_INLINE_CODE = re.compile(r"(`+)(.+?)\1")
+_COMMAND = re.compile(r"^(?:\$\s+)?\.venv/bin/(roboray-[a-z]+)(?=\s|$)")
+
+
+def _rel(path: Path) -> str:
+    return str(path.relative_to(ROOT))
+
+
+def _prose_lines(path: Path):
+    """``(line number, text)`` of the lines outside fenced code blocks, inline code removed."""
+    fenced = False
+    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if _FENCE.match(line):
+            fenced = not fenced
+            continue
+        if not fenced:
+            yield n, _INLINE_CODE.sub("", line)
+
+
+def _links(path: Path):
+    for n, line in _prose_lines(path):
+        for m in _LINK.finditer(line):
+            yield n, m.group(1)
+        m = _REFERENCE.match(line)
+        if m:
+            yield n, m.group(1)
+
+
+def github_anchor(heading: str) -> str:
+    """The anchor GitHub gives a heading: markup dropped, lower case,
+    punctuation other than hyphens and underscores removed, spaces to hyphens."""
+    text = re.sub(r"!?\[([^\]]*)\]\([^)]*\)", r"\1", heading)   # a link keeps its text
+    text = re.sub(r"<[^>]+>", "", text).replace("`", "").replace("*", "")
+    return re.sub(r"[^\w\- ]", "", text.strip().lower()).replace(" ", "-")
+
+
+def anchors(path: Path) -> set[str]:
+    """The anchors a Markdown file has: its headings' (a repeated one gets
+    ``-1``, ``-2``, ... as on GitHub) and explicit ``<a id=...>``/``name``."""
+    found: set[str] = set()
+    seen: dict[str, int] = {}
+    fenced = False
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if _FENCE.match(line):
+            fenced = not fenced
+            continue
+        if fenced:
+            continue
+        for m in re.finditer(r"<a\s+(?:id|name)=\"([^\"]+)\"", line):
+            found.add(m.group(1))
+        m = re.match(r"^\s{0,3}#{1,6}\s+(.*?)\s*#*\s*$", line)
+        if m:
+            base = github_anchor(m.group(1))
+            k = seen.get(base, 0)
+            seen[base] = k + 1
+            found.add(base if k == 0 else "%s-%d" % (base, k))
+    return found
+
+
+def broken_links(path: Path) -> list[str]:
+    problems = []
+    for n, target in _links(path):
+        if re.match(r"^[a-z][a-z0-9+.-]*:", target, re.I):   # http:, https:, mailto:, ...
+            continue
+        file_part, _, fragment = target.partition("#")
+        dest = (path.parent / file_part).resolve() if file_part else path
+        where = "%s:%d: %s" % (_rel(path), n, target)
+        if not dest.is_relative_to(ROOT):
+            problems.append(where + " points outside the repository")
+        elif not dest.exists():
+            problems.append(where + " does not exist")
+        elif fragment and dest.suffix == ".md" and fragment not in anchors(dest):
+            problems.append(where + " has no heading #%s" % fragment)
+    return problems
+
+
+def command_lines(path: Path):
+    """``(line number, script, argv)`` of each ``roboray-*`` command line the
+    file shows: in a fenced block a line ``$ .venv/bin/roboray-...`` or
+    ``.venv/bin/roboray-...`` (continued over trailing backslashes), in prose
+    an inline code span that starts so. Shell syntax ends the command (``&``,
+    ``;``, ``|``, a redirection, a comment)."""
+    fenced = False
+    lines = path.read_text(encoding="utf-8").splitlines()
+    k = 0
+    while k < len(lines):
+        n, line = k + 1, lines[k]
+        k += 1
+        if _FENCE.match(line):
+            fenced = not fenced
+            continue
+        if fenced:
+            text = line.strip()
+            while text.endswith("\\") and k < len(lines):
+                text = text[:-1] + " " + lines[k].strip()
+                k += 1
+            candidates = [text]
+        else:
+            candidates = [m.group(2).strip() for m in _INLINE_CODE.finditer(line)]
+        for text in candidates:
+            m = _COMMAND.match(text)
+            if m:
+                yield n, m.group(1), _shell_words(text[m.end():])
+
+
+def _shell_words(text: str) -> list[str]:
+    lexer = shlex.shlex(text, posix=True, punctuation_chars=True)
+    lexer.whitespace_split = True
+    lexer.commenters = "#"
+    words = []
+    for word in lexer:
+        if word and all(c in lexer.punctuation_chars for c in word):
+            break
+        words.append(word)
+    return words
+
+
+def parse_error(script: str, argv: list[str]) -> str:
+    """What the script's argparse says about ``argv``, "" when it parses; nothing runs."""
+    import importlib
+
+    parser = importlib.import_module(CLIS[script]).build_parser()
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            parser.parse_args(argv)
+    except SystemExit as e:
+        if e.code not in (0, None):
+            return err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else "exit %s" % e.code
+    return ""
+
+
+# ---------------------------------------------------------------- the checker itself
+
+
+def test_github_anchors_are_made_as_github_makes_them():
+    assert github_anchor("Identity, link") == "identity-link"
+    assert github_anchor("`roboray-flash`") == "roboray-flash"
+    assert github_anchor("Step 2: flash it (once)") == "step-2-flash-it-once"
+    assert github_anchor("[Links](x.md) and *more*") == "links-and-more"
+
+
+def test_broken_links_and_missing_anchors_are_found(tmp_path, monkeypatch):
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    (tmp_path / "b.md").write_text("# Real heading\n\n## Twice\n\n## Twice\n")
+    a = tmp_path / "a.md"
+    a.write_text("[ok](b.md#real-heading) [ok2](b.md#twice-1) [gone](c.md)\n"
+                 "[no anchor](b.md#nope) [out](../x.md) `[code](c.md)` [web](https://example.com/c.md)\n"
+                 "```\n[in a block](c.md)\n```\n[self](#top)\n# Top\n")
+    problems = broken_links(a)
+    assert problems == ["a.md:1: c.md does not exist", "a.md:2: b.md#nope has no heading #nope",
+                        "a.md:2: ../x.md points outside the repository"]
+
+
+def test_command_lines_are_found_and_a_wrong_one_is_reported(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("Run `.venv/bin/roboray-flash build --json` then:\n\n"
+                   "  ```sh\n  $ .venv/bin/roboray-sim trim --wings 0,45,90,45 --json | head -1\n"
+                   "  output line\n  .venv/bin/roboray-ground watch \\\n    --master /dev/pts/0 &  # the path\n"
+                   "  $ .venv/bin/roboray-sim trim --no-such-option\n  ```\n")
+    found = list(command_lines(doc))
+    assert found == [(1, "roboray-flash", ["build", "--json"]),
+                     (4, "roboray-sim", ["trim", "--wings", "0,45,90,45", "--json"]),
+                     (6, "roboray-ground", ["watch", "--master", "/dev/pts/0"]),
+                     (8, "roboray-sim", ["trim", "--no-such-option"])]
+    assert [parse_error(script, argv) for _, script, argv in found[:3]] == ["", "", ""]
+    assert "unrecognized arguments: --no-such-option" in parse_error(*found[3][1:])
+
+
+# ---------------------------------------------------------------- the docs
+
+
+def test_every_relative_link_in_the_docs_resolves():
+    assert ROOT / "docs" / "user" / "parameters.md" in DOCS
+    problems = [p for path in DOCS for p in broken_links(path)]
+    assert not problems, "broken links:\n" + "\n".join(problems)
+
+
+def test_every_command_line_in_the_docs_parses_with_the_current_cli(monkeypatch):
+    # relative paths in the examples (--plot docs/figures/x.png) are the repository's
+    monkeypatch.chdir(ROOT)
+    shown = [(path, n, script, argv) for path in DOCS for n, script, argv in command_lines(path)]
+    assert len(shown) > 50 and {s for _, _, s, _ in shown} == set(CLIS)
+    problems = ["%s:%d: %s %s: %s" % (_rel(path), n, script, " ".join(argv), error)
+                for path, n, script, argv in shown for error in [parse_error(script, argv)] if error]
+    assert not problems, "doc command lines the CLIs refuse:\n" + "\n".join(problems)
+
+
+def test_the_parameter_reference_is_what_the_generator_writes_now():
+    committed = gen_param_docs.default_out().read_text(encoding="utf-8")
+    assert committed == gen_param_docs.generate(), "run .venv/bin/python -m roboray.tools.gen_param_docs"
+    from roboray.firmware.app import PARAMS
+
+    for d in PARAMS:
+        assert "| `%s` |" % d[0] in committed, d[0]
+
+
+def test_the_parameter_reference_is_linked_from_the_readme_and_the_commands():
+    for doc in ("README.md", "docs/user/commands.md"):
+        targets = [(ROOT / doc).parent.joinpath(t.partition("#")[0]).resolve() for _, t in _links(ROOT / doc)]
+        assert gen_param_docs.default_out() in targets, doc
+
+
+def test_gen_param_docs_check_says_whether_the_page_is_current(tmp_path):
+    out = tmp_path / "parameters.md"
+    assert gen_param_docs.main(["--out", str(out), "--check"]) == 1
+    assert gen_param_docs.main(["--out", str(out)]) == 0
+    assert gen_param_docs.main(["--out", str(out), "--check"]) == 0
+    out.write_text(out.read_text().replace("| 57600 |", "| 9600 |"))
+    assert gen_param_docs.main(["--out", str(out), "--check"]) == 1
+
+
+def _repository_files() -> list[Path]:
+    try:
+        names = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+                               cwd=ROOT, capture_output=True, check=True).stdout.decode().split("\0")
+    except (OSError, subprocess.CalledProcessError) as e:
+        pytest.skip("not a git checkout (%s): cannot list the repository's files" % e)
+    return [ROOT / name for name in names if name and (ROOT / name).exists()]
+
+
+def test_nothing_in_the_repository_points_outside_it():
+    sibling = ".." + "/shared"   # spelled apart so that this file does not match itself
+    problems = []
+    for path in _repository_files():
+        if path.is_symlink():
+            if not path.resolve().is_relative_to(ROOT):
+                problems.append("%s is a link to %s" % (_rel(path), path.resolve()))
+            continue
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (UnicodeDecodeError, IsADirectoryError):
+            continue
+        for n, line in enumerate(text.splitlines(), 1):
+            if sibling in line:
+                problems.append("%s:%d: %s" % (_rel(path), n, line.strip()))
+            if path.suffix == ".md":
+                # a relative path written in a doc, linked or not, must stay inside
+                for m in re.finditer(r"(?<![\w./])((?:\.\./)+)[\w.-]*", line):
+                    if not (path.parent / m.group(0)).resolve().is_relative_to(ROOT):
+                        problems.append("%s:%d: %s points outside the repository" % (_rel(path), n, m.group(0)))
+    assert not problems, "\n".join(problems)
