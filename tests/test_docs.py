@@ -6,6 +6,7 @@ repository points outside it."""
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import io
 import re
@@ -32,7 +33,8 @@ _FENCE = re.compile(r"^\s*(```|~~~)")
 _LINK = re.compile(r"!?\[(?:[^\]\\]|\\.)*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 _REFERENCE = re.compile(r"^\s{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s|$)")
 _INLINE_CODE = re.compile(r"(`+)(.+?)\1")
-_COMMAND = re.compile(r"^(?:\$\s+)?\.venv/bin/(roboray-[a-z]+)(?=\s|$)")
+_COMMAND = re.compile(r"^(?:\$\s+)?(?:\.venv/bin/)?(roboray-(?:sim|ground|flash))(?=\s|$)")
+_MENTION = re.compile(r"^(roboray-(?:sim|ground|flash))\s+\S")
 
 
 def _rel(path: Path) -> str:
@@ -107,33 +109,128 @@ def broken_links(path: Path) -> list[str]:
     return problems
 
 
+def _blocks(path: Path):
+    """``(info string, [(line number, text), ...])`` of each fenced block."""
+    block = None
+    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if _FENCE.match(line):
+            if block is None:
+                block = (line.strip()[3:].strip(), [])
+            else:
+                yield block
+                block = None
+        elif block is not None:
+            block[1].append((n, line))
+
+
+def _shown(path: Path):
+    """``(line number, kind, text)`` of every ``roboray-*`` command the file
+    shows. kind "command": a whole command line: in a fenced block a line
+    ``$ [.venv/bin/]roboray-...`` or ``.venv/bin/roboray-...``, and in a
+    ``sh`` block without prompts (a script, not a session with output) a
+    bare ``roboray-...`` line, continued over trailing backslashes; in prose
+    an inline code span ``.venv/bin/roboray-...``. kind "synopsis": a
+    command as prose names it (an inline span ``roboray-sim trim --wings
+    ... [--json]``, ``roboray-ground --key``) or a block's usage line with
+    ``[optional]`` parts, continued over the indented lines after it."""
+    for n, line in _prose_lines_with_code(path):
+        for m in _INLINE_CODE.finditer(line):
+            text = m.group(2).strip()
+            if text.startswith(".venv/bin/roboray-"):
+                yield n, "command", text
+            elif _MENTION.match(text):
+                yield n, "synopsis", text
+    for info, lines in _blocks(path):
+        script = info in ("sh", "bash", "shell") and not any(t.lstrip().startswith("$ ") for _, t in lines)
+        k = 0
+        while k < len(lines):
+            n, text = lines[k]
+            indent = len(text) - len(text.lstrip())
+            text = text.strip()
+            k += 1
+            if script and _MENTION.match(text) and "[" in text:
+                while k < len(lines) and len(lines[k][1]) - len(lines[k][1].lstrip()) > indent:
+                    text += " " + lines[k][1].strip()
+                    k += 1
+                yield n, "synopsis", text
+                continue
+            while text.endswith("\\") and k < len(lines):
+                text = text[:-1] + " " + lines[k][1].strip()
+                k += 1
+            if text.startswith(("$ ", ".venv/bin/")) or (script and _MENTION.match(text)):
+                yield n, "command", text
+
+
 def command_lines(path: Path):
-    """``(line number, script, argv)`` of each ``roboray-*`` command line the
-    file shows: in a fenced block a line ``$ .venv/bin/roboray-...`` or
-    ``.venv/bin/roboray-...`` (continued over trailing backslashes), in prose
-    an inline code span that starts so. Shell syntax ends the command (``&``,
-    ``;``, ``|``, a redirection, a comment)."""
+    """``(line number, script, argv)`` of each whole command line shown
+    (``_shown``); shell syntax ends the command (``&``, ``;``, ``|``, a
+    redirection, a comment)."""
+    for n, kind, text in _shown(path):
+        m = _COMMAND.match(text)
+        if kind == "command" and m:
+            yield n, m.group(1), _shell_words(text[m.end():])
+
+
+def mentions(path: Path):
+    """``(line number, text)`` of each command as prose or a usage line names it."""
+    for n, kind, text in _shown(path):
+        if kind == "synopsis":
+            yield n, text
+
+
+def _prose_lines_with_code(path: Path):
     fenced = False
-    lines = path.read_text(encoding="utf-8").splitlines()
-    k = 0
-    while k < len(lines):
-        n, line = k + 1, lines[k]
-        k += 1
+    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
         if _FENCE.match(line):
             fenced = not fenced
+        elif not fenced:
+            yield n, line
+
+
+def _options(parser) -> dict:
+    return dict(parser._option_string_actions)
+
+
+def _subcommands(parser) -> dict:
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return action.choices
+    return {}
+
+
+def synopsis_error(text: str) -> str:
+    """What is wrong with a command as the prose names it, "" when nothing:
+    its subcommands exist, each option it names is one of that command's
+    (or of a command above it), and the choices it lists for an option with
+    choices (``--interpreter micropython|cpython``) are the option's."""
+    import importlib
+
+    words = text.replace("[", " ").replace("]", " ").split()
+    script, words = words[0], words[1:]
+    parser = importlib.import_module(CLIS[script]).build_parser()
+    known = _options(parser)
+    prog = [script]
+    k = 0
+    while k < len(words) and words[k] in _subcommands(parser):
+        parser = _subcommands(parser)[words[k]]
+        known.update(_options(parser))
+        prog.append(words[k])
+        k += 1
+    if k < len(words) and _subcommands(parser) and re.fullmatch(r"[a-z][a-z-]*", words[k]):
+        return "%s has no command %r" % (" ".join(prog), words[k])
+    for j in range(k, len(words)):
+        word = words[j].split("=")[0].rstrip(",.")
+        if not re.fullmatch(r"--?[A-Za-z][\w-]*", word):
             continue
-        if fenced:
-            text = line.strip()
-            while text.endswith("\\") and k < len(lines):
-                text = text[:-1] + " " + lines[k].strip()
-                k += 1
-            candidates = [text]
-        else:
-            candidates = [m.group(2).strip() for m in _INLINE_CODE.finditer(line)]
-        for text in candidates:
-            m = _COMMAND.match(text)
-            if m:
-                yield n, m.group(1), _shell_words(text[m.end():])
+        if word not in known:
+            return "%s has no option %s" % (" ".join(prog), word)
+        action = known[word]
+        listed = words[j + 1].split("|") if j + 1 < len(words) and "|" in words[j + 1] else []
+        if action.choices is not None and listed:
+            wrong = [c for c in listed if c not in action.choices]
+            if wrong:
+                return "%s %s: no choice %s" % (" ".join(prog), word, ", ".join(wrong))
+    return ""
 
 
 def _shell_words(text: str) -> list[str]:
@@ -200,6 +297,25 @@ def test_command_lines_are_found_and_a_wrong_one_is_reported(tmp_path):
     assert "unrecognized arguments: --no-such-option" in parse_error(*found[3][1:])
 
 
+def test_a_script_block_and_usage_lines_are_read_and_a_renamed_option_is_reported(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("As `roboray-sim trim --wings ... [--json]` and `roboray-flash --port auto` do:\n\n"
+                   "```sh\nroboray-ground fixes SOURCE [--format auto|nmea|xml]\n    [--max-age S] --master DEVICE\n"
+                   "roboray-ground fixes udpin:0.0.0.0:2947 --master /dev/ttyUSB0\n```\n\n"
+                   "```\n$ roboray-ground status --master /dev/pts/0\nroboray-ground status: no heartbeat\n```\n")
+    assert list(command_lines(doc)) == [
+        (6, "roboray-ground", ["fixes", "udpin:0.0.0.0:2947", "--master", "/dev/ttyUSB0"]),
+        (10, "roboray-ground", ["status", "--master", "/dev/pts/0"])]
+    found = list(mentions(doc))
+    assert [n for n, _ in found] == [1, 1, 4]
+    assert found[2][1].endswith("[--max-age S] --master DEVICE")
+    assert [synopsis_error(text) for _, text in found] == [
+        "", "roboray-flash has no option --port", "roboray-ground fixes --format: no choice xml"]
+    assert synopsis_error("roboray-sim bench nope") == "roboray-sim bench has no command 'nope'"
+    assert synopsis_error("roboray-sim sil [--scenario target-landing|velocity] [--jsn]") == \
+        "roboray-sim sil has no option --jsn"
+
+
 # ---------------------------------------------------------------- the docs
 
 
@@ -217,6 +333,14 @@ def test_every_command_line_in_the_docs_parses_with_the_current_cli(monkeypatch)
     problems = ["%s:%d: %s %s: %s" % (_rel(path), n, script, " ".join(argv), error)
                 for path, n, script, argv in shown for error in [parse_error(script, argv)] if error]
     assert not problems, "doc command lines the CLIs refuse:\n" + "\n".join(problems)
+
+
+def test_every_command_the_docs_name_has_the_options_and_choices_they_name():
+    shown = [(path, n, text) for path in DOCS for n, text in mentions(path)]
+    assert len(shown) > 50
+    problems = ["%s:%d: %s: %s" % (_rel(path), n, text, error)
+                for path, n, text in shown for error in [synopsis_error(text)] if error]
+    assert not problems, "commands the docs name wrongly:\n" + "\n".join(problems)
 
 
 def test_the_parameter_reference_is_what_the_generator_writes_now():
