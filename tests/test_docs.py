@@ -316,6 +316,20 @@ def test_a_script_block_and_usage_lines_are_read_and_a_renamed_option_is_reporte
         "roboray-sim sil has no option --jsn"
 
 
+def test_a_file_a_doc_names_must_exist_unless_it_is_another_projects(tmp_path, monkeypatch):
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "test_a.py").write_text("")
+    doc = tmp_path / "d.md"
+    doc.write_text("`tests/test_a.py`, `tests/test_*.py`, `NOTES.md`, `tests/test_b.py::test_x`,\n"
+                   "MicroPython's `tests/run-perfbench.py`, `tests/test_c*.py`, `roboray-sim`, the project's `docs/x.md`\n"
+                   "```\n`tests/in_a_block.py`\n```\n")
+    assert missing_paths(doc) == ["d.md:1: NOTES.md is not in the repository",
+                                  "d.md:1: tests/test_b.py is not in the repository",
+                                  "d.md:2: tests/test_c*.py is not in the repository",
+                                  "d.md:2: docs/x.md is not in the repository"]
+
+
 # ---------------------------------------------------------------- the docs
 
 
@@ -341,6 +355,30 @@ def test_every_command_the_docs_name_has_the_options_and_choices_they_name():
     problems = ["%s:%d: %s: %s" % (_rel(path), n, text, error)
                 for path, n, text in shown for error in [synopsis_error(text)] if error]
     assert not problems, "commands the docs name wrongly:\n" + "\n".join(problems)
+
+
+#: A path of this repository as the docs write one in code: ``sim/twin/board/``, ``tests/test_x.py``.
+_REPO_PATH = re.compile(r"(?:shared|firmware|sim|ground|tools|tests|docs)/[\w./*-]*|[A-Z][A-Z_]*\.md")
+#: ... unless it is another project's (``MicroPython's `tests/run-perfbench.py```).
+_THEIRS = re.compile(r"\b(?!README\b|RoboRay\b)[A-Z][\w.-]*'s\s+$|\b(?i:pymavlink|mavproxy|micropython|ardupilot)'s\s+$")
+
+
+def missing_paths(path: Path) -> list[str]:
+    """The repository paths a doc names in code that are not there."""
+    problems = []
+    for n, line in _prose_lines_with_code(path):
+        for m in _INLINE_CODE.finditer(line):
+            name = m.group(2).strip().split("::")[0]
+            if not _REPO_PATH.fullmatch(name) or _THEIRS.search(line[:m.start()]):
+                continue
+            if not (any(ROOT.glob(name.rstrip("/"))) if "*" in name else (ROOT / name).exists()):
+                problems.append("%s:%d: %s is not in the repository" % (_rel(path), n, name))
+    return problems
+
+
+def test_every_file_the_docs_name_is_in_the_repository():
+    problems = [p for path in DOCS for p in missing_paths(path)]
+    assert not problems, "\n".join(problems)
 
 
 def test_the_parameter_reference_is_what_the_generator_writes_now():
