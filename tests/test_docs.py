@@ -1,13 +1,18 @@
-"""Docs that cannot rot (issue 19): every relative link in README.md and
-docs/ resolves, every ``roboray-*`` command line they show parses with the
-current command-line interfaces, the parameter reference is what its
-generator writes from the parameter definitions now, and nothing in the
-repository points outside it."""
+"""Docs that cannot rot (issue 19): every relative link in README.md,
+DEVELOPERS.md and docs/ resolves (files and #anchors); every ``roboray-*``
+command line they show parses with the current command-line interfaces
+(their real argparse parsers, nothing run), and every command they name in
+prose or a usage line has the subcommands, options and choices named; the
+repository files they name exist; the parameter reference is what its
+generator writes from the parameter definitions now; and nothing in the
+repository points outside it. Each checker is first shown to catch what it
+is for on a made-up doc."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import io
 import re
 import shlex
@@ -42,18 +47,18 @@ def _rel(path: Path) -> str:
 
 
 def _prose_lines(path: Path):
-    """``(line number, text)`` of the lines outside fenced code blocks, inline code removed."""
+    """``(line number, text)`` of the lines outside fenced code blocks."""
     fenced = False
     for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
         if _FENCE.match(line):
             fenced = not fenced
-            continue
-        if not fenced:
-            yield n, _INLINE_CODE.sub("", line)
+        elif not fenced:
+            yield n, line
 
 
 def _links(path: Path):
     for n, line in _prose_lines(path):
+        line = _INLINE_CODE.sub("", line)
         for m in _LINK.finditer(line):
             yield n, m.group(1)
         m = _REFERENCE.match(line)
@@ -133,7 +138,7 @@ def _shown(path: Path):
     command as prose names it (an inline span ``roboray-sim trim --wings
     ... [--json]``, ``roboray-ground --key``) or a block's usage line with
     ``[optional]`` parts, continued over the indented lines after it."""
-    for n, line in _prose_lines_with_code(path):
+    for n, line in _prose_lines(path):
         for m in _INLINE_CODE.finditer(line):
             text = m.group(2).strip()
             if text.startswith(".venv/bin/roboray-"):
@@ -178,15 +183,6 @@ def mentions(path: Path):
             yield n, text
 
 
-def _prose_lines_with_code(path: Path):
-    fenced = False
-    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-        if _FENCE.match(line):
-            fenced = not fenced
-        elif not fenced:
-            yield n, line
-
-
 def _options(parser) -> dict:
     return dict(parser._option_string_actions)
 
@@ -203,8 +199,6 @@ def synopsis_error(text: str) -> str:
     its subcommands exist, each option it names is one of that command's
     (or of a command above it), and the choices it lists for an option with
     choices (``--interpreter micropython|cpython``) are the option's."""
-    import importlib
-
     words = text.replace("[", " ").replace("]", " ").split()
     script, words = words[0], words[1:]
     parser = importlib.import_module(CLIS[script]).build_parser()
@@ -247,8 +241,6 @@ def _shell_words(text: str) -> list[str]:
 
 def parse_error(script: str, argv: list[str]) -> str:
     """What the script's argparse says about ``argv``, "" when it parses; nothing runs."""
-    import importlib
-
     parser = importlib.import_module(CLIS[script]).build_parser()
     err = io.StringIO()
     try:
@@ -258,6 +250,62 @@ def parse_error(script: str, argv: list[str]) -> str:
         if e.code not in (0, None):
             return err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else "exit %s" % e.code
     return ""
+
+
+#: A path of this repository as the docs write one in code: ``sim/twin/board/``, ``tests/test_x.py``.
+_REPO_PATH = re.compile(r"(?:shared|firmware|sim|ground|tools|tests|docs)/[\w./*-]*|[A-Z][A-Z_]*\.md")
+#: ... unless it is another project's (``MicroPython's `tests/run-perfbench.py```).
+_THEIRS = re.compile(r"\b(?!README\b|RoboRay\b)[A-Z][\w.-]*'s\s+$|\b(?i:pymavlink|mavproxy|micropython|ardupilot)'s\s+$")
+
+
+def named_paths(path: Path):
+    """``(line number, path)`` of the repository paths a doc names in code."""
+    for n, line in _prose_lines(path):
+        for m in _INLINE_CODE.finditer(line):
+            name = m.group(2).strip().split("::")[0]
+            if _REPO_PATH.fullmatch(name) and not _THEIRS.search(line[:m.start()]):
+                yield n, name
+
+
+def missing_paths(path: Path) -> list[str]:
+    """The repository paths a doc names in code that are not there."""
+    return ["%s:%d: %s is not in the repository" % (_rel(path), n, name) for n, name in named_paths(path)
+            if not (any(ROOT.glob(name.rstrip("/"))) if "*" in name else (ROOT / name).exists())]
+
+
+def pointers_outside(files: list[Path]) -> list[str]:
+    """What in ``files`` points outside the repository: a symbolic link that
+    leads out, the sibling ``shared`` folder of an old layout named
+    relatively, a doc's relative path (linked or not) that climbs out."""
+    sibling = ".." + "/shared"   # spelled apart so that this file does not match itself
+    problems = []
+    for path in files:
+        if path.is_symlink():
+            if not path.resolve().is_relative_to(ROOT):
+                problems.append("%s is a link to %s" % (_rel(path), path.resolve()))
+            continue
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (UnicodeDecodeError, IsADirectoryError):
+            continue
+        for n, line in enumerate(text.splitlines(), 1):
+            if sibling in line:
+                problems.append("%s:%d: %s" % (_rel(path), n, line.strip()))
+            if path.suffix == ".md":
+                for m in re.finditer(r"(?<![\w./])(?:\.\./)+[\w.-]*", line):
+                    if not (path.parent / m.group(0)).resolve().is_relative_to(ROOT):
+                        problems.append("%s:%d: %s points outside the repository" % (_rel(path), n, m.group(0)))
+    return problems
+
+
+def _repository_files() -> list[Path]:
+    """The repository's files, tracked or new (not the ignored: .venv, build output)."""
+    try:
+        names = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+                               cwd=ROOT, capture_output=True, check=True).stdout.decode().split("\0")
+    except (OSError, subprocess.CalledProcessError) as e:
+        pytest.skip("not a git checkout (%s): cannot list the repository's files" % e)
+    return [ROOT / name for name in names if name and (ROOT / name).exists()]
 
 
 # ---------------------------------------------------------------- the checker itself
@@ -330,6 +378,23 @@ def test_a_file_a_doc_names_must_exist_unless_it_is_another_projects(tmp_path, m
                                   "d.md:2: docs/x.md is not in the repository"]
 
 
+def test_links_out_of_the_repository_and_the_old_sibling_folder_are_found(tmp_path, monkeypatch):
+    repo = tmp_path / "repo"
+    (repo / "docs").mkdir(parents=True)
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", repo)
+    (tmp_path / "elsewhere.py").write_text("")
+    (repo / "inside.py").write_text("")
+    (repo / "out.py").symlink_to(tmp_path / "elsewhere.py")
+    (repo / "in.py").symlink_to(repo / "inside.py")
+    (repo / "setup.cfg").write_text("[paths]\nboard = " + ".." + "/shared/x.py\n")
+    (repo / "docs" / "a.md").write_text("see `../inside.py` and ../../elsewhere.py\n")
+    files = [repo / name for name in ("out.py", "in.py", "inside.py", "setup.cfg", "docs/a.md")]
+    assert pointers_outside(files) == [
+        "out.py is a link to %s" % (tmp_path / "elsewhere.py"),
+        "setup.cfg:2: board = " + ".." + "/shared/x.py",
+        "docs/a.md:1: ../../elsewhere.py points outside the repository"]
+
+
 # ---------------------------------------------------------------- the docs
 
 
@@ -357,26 +422,8 @@ def test_every_command_the_docs_name_has_the_options_and_choices_they_name():
     assert not problems, "commands the docs name wrongly:\n" + "\n".join(problems)
 
 
-#: A path of this repository as the docs write one in code: ``sim/twin/board/``, ``tests/test_x.py``.
-_REPO_PATH = re.compile(r"(?:shared|firmware|sim|ground|tools|tests|docs)/[\w./*-]*|[A-Z][A-Z_]*\.md")
-#: ... unless it is another project's (``MicroPython's `tests/run-perfbench.py```).
-_THEIRS = re.compile(r"\b(?!README\b|RoboRay\b)[A-Z][\w.-]*'s\s+$|\b(?i:pymavlink|mavproxy|micropython|ardupilot)'s\s+$")
-
-
-def missing_paths(path: Path) -> list[str]:
-    """The repository paths a doc names in code that are not there."""
-    problems = []
-    for n, line in _prose_lines_with_code(path):
-        for m in _INLINE_CODE.finditer(line):
-            name = m.group(2).strip().split("::")[0]
-            if not _REPO_PATH.fullmatch(name) or _THEIRS.search(line[:m.start()]):
-                continue
-            if not (any(ROOT.glob(name.rstrip("/"))) if "*" in name else (ROOT / name).exists()):
-                problems.append("%s:%d: %s is not in the repository" % (_rel(path), n, name))
-    return problems
-
-
 def test_every_file_the_docs_name_is_in_the_repository():
+    assert sum(1 for path in DOCS for _ in named_paths(path)) > 50
     problems = [p for path in DOCS for p in missing_paths(path)]
     assert not problems, "\n".join(problems)
 
@@ -405,33 +452,8 @@ def test_gen_param_docs_check_says_whether_the_page_is_current(tmp_path):
     assert gen_param_docs.main(["--out", str(out), "--check"]) == 1
 
 
-def _repository_files() -> list[Path]:
-    try:
-        names = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
-                               cwd=ROOT, capture_output=True, check=True).stdout.decode().split("\0")
-    except (OSError, subprocess.CalledProcessError) as e:
-        pytest.skip("not a git checkout (%s): cannot list the repository's files" % e)
-    return [ROOT / name for name in names if name and (ROOT / name).exists()]
-
-
 def test_nothing_in_the_repository_points_outside_it():
-    sibling = ".." + "/shared"   # spelled apart so that this file does not match itself
-    problems = []
-    for path in _repository_files():
-        if path.is_symlink():
-            if not path.resolve().is_relative_to(ROOT):
-                problems.append("%s is a link to %s" % (_rel(path), path.resolve()))
-            continue
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (UnicodeDecodeError, IsADirectoryError):
-            continue
-        for n, line in enumerate(text.splitlines(), 1):
-            if sibling in line:
-                problems.append("%s:%d: %s" % (_rel(path), n, line.strip()))
-            if path.suffix == ".md":
-                # a relative path written in a doc, linked or not, must stay inside
-                for m in re.finditer(r"(?<![\w./])((?:\.\./)+)[\w.-]*", line):
-                    if not (path.parent / m.group(0)).resolve().is_relative_to(ROOT):
-                        problems.append("%s:%d: %s points outside the repository" % (_rel(path), n, m.group(0)))
+    files = _repository_files()
+    assert len(files) > 100 and ROOT / "shared" / "param_meta.py" in files
+    problems = pointers_outside(files)
     assert not problems, "\n".join(problems)
