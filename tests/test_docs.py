@@ -452,6 +452,28 @@ def test_gen_param_docs_check_says_whether_the_page_is_current(tmp_path):
     assert gen_param_docs.main(["--out", str(out), "--check"]) == 1
 
 
+def test_the_reference_groups_every_parameter_once_as_param_meta_orders_them():
+    from roboray.shared.param_meta import META
+
+    groups = gen_param_docs.meta_groups()
+    assert [title for title, _ in groups][:3] == ["identity, link", "streams", "failsafes"]
+    assert [name for _, names in groups for name in names] == list(META)
+    page = gen_param_docs.generate()
+    headings = re.findall(r"^## (.+)$", page, re.M)
+    assert [h.lower() for h in headings] == [title for title, _ in groups]
+    assert "| `SERIAL_BAUD` | 57600 | 1200 to 921600 |  |" in page and "Read-only." in page
+    assert "0 Off, 1 Warn, 2 Disarm, 3 FAILSAFE mode." in page and "| s (seconds) |" in page
+
+
+def test_gen_param_docs_says_in_one_line_what_it_cannot_write(tmp_path, capsys):
+    assert gen_param_docs.main(["--out", str(tmp_path / "no" / "such" / "parameters.md")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot write" in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as e:
+        gen_param_docs.main(["--no-such-option"])
+    assert e.value.code == 2
+
+
 def test_nothing_in_the_repository_points_outside_it():
     files = _repository_files()
     assert len(files) > 100 and ROOT / "shared" / "param_meta.py" in files
