@@ -563,8 +563,10 @@ def _quat_heading(heading_deg: float) -> np.ndarray:
     return np.array([math.cos(a), 0.0, 0.0, math.sin(a)])
 
 
-def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
-    """Fly ``spec`` to the bottom (or ``max_flight_s``); see the module docstring."""
+def fly(spec: FlightSpec, record_every: int = 1, depth=None) -> Flight:
+    """Fly ``spec`` to the bottom (or ``max_flight_s``); see the module
+    docstring. ``depth(m)`` hears the vehicle's depth at each control step
+    after the release (a progress bar's measure: the bottom is the end)."""
     from array import array
 
     _single_thread()
@@ -671,6 +673,8 @@ def fly(spec: FlightSpec, record_every: int = 1) -> Flight:
                                    + [int(v) for v in est.status])
             ctl.step(t_us, flight_mode, est, out)
             cmd[0, :] = out
+            if released and depth is not None:
+                depth(float(x[0, 2]))
             if released and control_count % record_every == 0:
                 rec["t"].append(tk - spec.hold_s)
                 rr = _rotation(x[0, 3:7])

@@ -136,6 +136,7 @@ def test_montecarlo_counts_each_flight_as_its_worker_finishes(tmp_path):
     ["envelope", "--step", "90", "--settle", "5", "--no-refine"],
     ["bench", "dynamics", "--duration", "2", "--batch", "10", "--batch-duration", "1"],
     ["bench", "mavlink", "--frames", "200", "--fuzz", "500", "--repeat", "1", "--no-micropython"],
+    ["fly", "--mode", "velocity", "--truth", "--max-time", "4"],
 ])
 def test_every_long_job_draws_its_bar(argv):
     name = argv[0] if argv[0] != "bench" else "bench " + argv[1]

@@ -50,7 +50,15 @@ def do_fly(args: argparse.Namespace) -> None:
     if args.mode == "target":
         check_target(spec.target[0], spec.target[1], spec.depth, spec.start_depth)
     start = time.perf_counter()
-    flight = fly(spec)
+    with progress.bar(args, spec.depth - spec.start_depth, "fly") as bar:
+        shown = [spec.start_depth]
+
+        def depth(d: float) -> None:
+            if d > shown[0] + 0.05:   # the bar measures the fall from the release to the bottom
+                bar.update(min(d, spec.depth) - shown[0])
+                shown[0] = min(d, spec.depth)
+
+        flight = fly(spec, depth=depth)
     result = dict(flight.metrics)
     result["wall_time_s"] = time.perf_counter() - start
     if args.plot:
