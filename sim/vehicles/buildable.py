@@ -69,35 +69,59 @@ SERVO_HEIGHT = 0.0065           # m, part: half of its 13 mm width, lying flat
 # 0.03 N m, a twelfth of the stall torque at 6 V.
 
 # --------------------------------------------------------------- dry parts
-# Everything inside the dome: (name, part number, mass kg, (x, y, z) m of its
-# centroid, source). Inside the dome they displace nothing of their own (the
-# dome's outer volume does), so only their mass and place enter the model.
-BATTERY_Z = TOP - 0.0093        # an 18650 lying on the plate: centroid at its radius, 9.3 mm up
-PARTS = (
-    ("ballast disc", "steel S235, 5 mm plate, 70 mm diameter", RHO_STEEL * math.pi * 0.035 ** 2 * 0.005,
-     (0.0, 0.0, TOP - 0.0025), "part: geometry x density; chosen thickness (trim with washers in the water)"),
-    ("battery cell 1", "Samsung INR18650-35E", 0.050, (0.0, -0.0105, BATTERY_Z - 0.005),
-     "part: Samsung SDI datasheet, 50.0 g max, 18.55 x 65.25 mm"),
-    ("battery cell 2", "Samsung INR18650-35E", 0.050, (0.0, 0.0105, BATTERY_Z - 0.005),
-     "part: as cell 1; the two in series (2S, 7.2 V nominal)"),
-    ("servo regulator", "Pololu D36V28F6 (6 V, 3.2 A step-down)", 0.0035, (0.022, 0.0, TOP - 0.020),
-     "assumed: a 18 x 23 mm board with headers, about 3.5 g"),
-    ("microcontroller", "Raspberry Pi Pico 2 (RP2350)", 0.0030, (-0.010, 0.0, TOP - 0.028),
+# Everything inside the dome, as (name, part, mass kg, centroid (x, y, z) m,
+# box (dx, dy, dz) m or None, source). Inside the dome they displace nothing
+# of their own (the dome's outer volume does), so only their mass and place
+# enter the model. Heights are above the plate's top face (z = TOP - h); the
+# layout is chosen so that every box fits under the dome's inner surface
+# (47 mm radius; a test checks it) and the dry parts' CG lies on the axis,
+# where the model puts it: the ballast bars are shifted to balance the rest.
+_MM = 0.001
+
+
+def _at(x_mm, y_mm, h_mm):
+    return (x_mm * _MM, y_mm * _MM, TOP - h_mm * _MM)
+
+
+BALLAST_BAR = (0.060, 0.012, 0.012)     # m, chosen: 60 mm cuts of 12 mm square steel bar, two of them
+BALLAST_BAR_MASS = RHO_STEEL * BALLAST_BAR[0] * BALLAST_BAR[1] * BALLAST_BAR[2]  # part: geometry x density
+
+_REST = (
+    ("battery cell 1", "Samsung INR18650-35E", 0.050, _at(-1.0, -9.3, 9.3), (0.06525, 0.01855, 0.01855),
+     "part: Samsung SDI datasheet, 50.0 g max, 18.55 x 65.25 mm; lying on the plate"),
+    ("battery cell 2", "Samsung INR18650-35E", 0.050, _at(-1.0, 9.3, 9.3), (0.06525, 0.01855, 0.01855),
+     "part: as cell 1; the two in series (2S, 7.2 V nominal, 3.5 Ah)"),
+    ("depth sensor", "Blue Robotics Bar30 (MS5837-30BA)", 0.011, _at(37.0, 0.0, 10.0), (0.010, 0.010, 0.020),
+     "assumed: M10 penetrator, nut and board, about 11 g (weigh yours); through the plate, its face flush below"),
+    ("microcontroller", "Raspberry Pi Pico 2 (RP2350)", 0.003, _at(0.0, -11.5, 23.0), (0.051, 0.021, 0.004),
      "assumed: the datasheet gives 51 x 21 x 1 mm and no mass; a bare Pico weighs about 3 g"),
-    ("IMU", "Adafruit 4517 (LSM6DSOX + LIS3MDL)", 0.0020, (0.010, 0.005, TOP - 0.0285),
-     "assumed: a 25 x 18 mm STEMMA QT breakout, about 2 g"),
-    ("depth sensor", "Blue Robotics Bar30 (MS5837-30BA)", 0.0110, (0.0, 0.020, TOP - 0.010),
-     "assumed: M10 penetrator body and board, about 11 g; its port flush with the plate's underside"),
-    ("radio", "Holybro SiK Telemetry Radio V3, 433 MHz", 0.0285, (0.0, -0.024, TOP - 0.036),
-     "assumed: Holybro's listing, 28.5 g without antenna; the antenna inside the dome (acrylic passes RF)"),
-    ("dome flange and seal", "acrylic ring 100/84 mm x 6 mm + O-ring, bolted", RHO_ACRYLIC * math.pi * (0.050 ** 2 - 0.042 ** 2) * 0.006,
-     (0.0, 0.0, TOP - 0.003), "part: ring geometry x acrylic density (the clamp under the dome's rim)"),
-    ("wiring and fasteners", "JST/DuPont leads, M3 screws, standoffs", 0.015, (0.0, 0.0, TOP - 0.012),
+    ("IMU", "Adafruit 4517 (LSM6DSOX + LIS3MDL)", 0.002, _at(-12.0, 11.0, 23.3), (0.0256, 0.0178, 0.0046),
+     "assumed: a 25.6 x 17.8 mm STEMMA QT breakout, about 2 g"),
+    ("servo regulator", "Pololu D36V28F6 (6 V, 3.2 A step-down)", 0.0035, _at(12.0, 11.0, 25.0), (0.018, 0.020, 0.008),
+     "assumed: an 18 x 20 mm board with headers, about 3.5 g; feeds the servos 6 V from the 2S pack"),
+    ("radio", "HC-12 433 MHz serial transceiver (Si4463)", 0.003, _at(0.0, 0.0, 32.0), (0.0278, 0.0144, 0.004),
+     "assumed: 27.8 x 14.4 mm module with its spring antenna, about 3 g; transparent UART at 57,600 baud, "
+     "the ground's twin on a CP2102 USB adapter; above the water only (acrylic passes RF, water does not)"),
+    ("deck and wiring", "1.6 mm perfboard 60 x 40 mm, leads, M3 screws, standoffs", 0.015, _at(0.0, 0.0, 16.0), None,
      "assumed: weigh yours"),
+    ("dome lip", "the dome's flange, 6 mm wide, 3 mm thick, with its O-ring and M3 screws",
+     RHO_ACRYLIC * math.pi * (0.056 ** 2 - 0.050 ** 2) * 0.003 + 0.004, _at(0.0, 0.0, 1.5), None,
+     "part: ring geometry x acrylic density, plus 4 g of screws (assumed); the model's dome is a bare hemisphere, "
+     "so the lip's 6 cm^3 outside it is left out of the displaced volume (1.2 %: the vehicle is 0.06 N lighter "
+     "in water than modelled)"),
 )
+# Ballast bars either side of the cells, shifted so the dry parts' CG is on the axis.
+_SHIFT = tuple(-sum(p[2] * p[3][k] for p in _REST) / (2 * BALLAST_BAR_MASS) for k in (0, 1))
+PARTS = (
+    ("ballast bar 1", "steel S235, 12 mm square bar, 60 mm long", BALLAST_BAR_MASS,
+     (_SHIFT[0], -0.0246 + _SHIFT[1], TOP - 0.006), BALLAST_BAR,
+     "part: geometry x density; chosen count (trim with washers in the water)"),
+    ("ballast bar 2", "steel S235, 12 mm square bar, 60 mm long", BALLAST_BAR_MASS,
+     (_SHIFT[0], 0.0246 + _SHIFT[1], TOP - 0.006), BALLAST_BAR, "part: as bar 1"),
+) + _REST
 #: m, the IMU board's and the pressure port's positions from the parts table
-IMU_POSITION = PARTS[5][3]
-PRESSURE_PORT = (0.0, 0.020, 0.5 * THICKNESS)
+IMU_POSITION = next(p[3] for p in PARTS if p[0] == "IMU")
+PRESSURE_PORT = next((p[3][0], p[3][1], 0.5 * THICKNESS) for p in PARTS if p[0] == "depth sensor")
 
 
 def _sheet_mass():
