@@ -37,6 +37,7 @@ CLIS = {
 _FENCE = re.compile(r"^\s*(```|~~~)")
 _LINK = re.compile(r"!?\[(?:[^\]\\]|\\.)*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 _REFERENCE = re.compile(r"^\s{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s|$)")
+_HTML_LINK = re.compile(r"<(?:img|a|source)\b[^>]*?\s(?:src|href)=\"([^\"]+)\"", re.I)
 _INLINE_CODE = re.compile(r"(`+)(.+?)\1")
 _COMMAND = re.compile(r"^(?:\$\s+)?(?:\.venv/bin/)?(roboray-(?:sim|ground|flash))(?=\s|$)")
 _MENTION = re.compile(r"^(roboray-(?:sim|ground|flash))\s+\S")
@@ -60,6 +61,8 @@ def _links(path: Path):
     for n, line in _prose_lines(path):
         line = _INLINE_CODE.sub("", line)
         for m in _LINK.finditer(line):
+            yield n, m.group(1)
+        for m in _HTML_LINK.finditer(line):
             yield n, m.group(1)
         m = _REFERENCE.match(line)
         if m:
@@ -324,10 +327,11 @@ def test_broken_links_and_missing_anchors_are_found(tmp_path, monkeypatch):
     a = tmp_path / "a.md"
     a.write_text("[ok](b.md#real-heading) [ok2](b.md#twice-1) [gone](c.md)\n"
                  "[no anchor](b.md#nope) [out](../x.md) `[code](c.md)` [web](https://example.com/c.md)\n"
-                 "```\n[in a block](c.md)\n```\n[self](#top)\n# Top\n")
+                 "```\n[in a block](c.md)\n```\n[self](#top)\n# Top\n"
+                 '<img src="b.md" width="40%"> <img src="fig.png">\n')
     problems = broken_links(a)
     assert problems == ["a.md:1: c.md does not exist", "a.md:2: b.md#nope has no heading #nope",
-                        "a.md:2: ../x.md points outside the repository"]
+                        "a.md:2: ../x.md points outside the repository", "a.md:8: fig.png does not exist"]
 
 
 def test_command_lines_are_found_and_a_wrong_one_is_reported(tmp_path):
