@@ -61,6 +61,11 @@ def meta_groups() -> list[tuple[str, list[str]]]:
     return groups
 
 
+def _plain(text: str) -> str:
+    """Metadata text as Markdown shows it literally (``NAMED_VALUE_*`` is no emphasis)."""
+    return re.sub(r"([\\*`<>\[\]])", r"\\\1", text)
+
+
 def _cell(text: str) -> str:
     return text.replace("|", "\\|")
 
@@ -102,7 +107,7 @@ def generate() -> str:
             d = decls[name]
             ptype, default, lo, hi = d[1], d[2], d[3], d[4]
             display, unit, description, values, user = META[name]
-            text = "**%s.** %s" % (display, description)
+            text = "**%s.** %s" % (_plain(display), _plain(description))
             if values:
                 text += " Values: " + ", ".join("%d %s" % (code, label) for code, label in values) + "."
             if len(d) > 5 and d[5] & 1:   # READ_ONLY (shared/params.py)
