@@ -159,6 +159,21 @@ def test_watchdog_expires_unfed_and_resets_the_board(mp):
     assert mp.eval("[machine.reset_cause(), t.pulse_ns(12), t.wdt_expired()]") == [3, 0, False]
 
 
+def test_a_watchdog_started_after_a_long_start_up_counts_from_its_start(mp):
+    # with the board's compute time charged, the clock reading that starts
+    # the watchdog moves time on by the start-up's work (1.5 s here) and runs
+    # the twin, which checks the watchdog: it must count from that reading,
+    # not from before it (a firmware that orders its collector at start-up
+    # was reset as its loop began)
+    mp.exec("busy = [0]\nvclock.set_cpu(lambda: busy[0])\n"
+            "vclock.set_hook(lambda dt: t.check_watchdog())\n"
+            "busy[0] = 1500000\n"
+            "w = WDT(timeout=1000)\nw.feed()\ntime.sleep_ms(500)\nw.feed()\n"
+            "vclock.set_hook(None)\nvclock.set_cpu(None)")
+    assert mp.eval("machine.reset_cause() == machine.WDT_RESET") is False
+    assert mp.eval("time.ticks_ms()") >= 2000
+
+
 def test_machine_reset_reports_a_watchdog_reset_as_rp2_does(mp):
     mp.exec("try:\n    machine.reset()\nexcept machine.BoardReset as e:\n    why = str(e)\n")
     assert mp.eval("[why, machine.reset_cause() == machine.WDT_RESET]") == ["machine.reset()", True]

@@ -983,13 +983,17 @@ class _Twin:
 
     # WDT
     def _wdt_start(self, timeout_ms):
+        # the clock read first: reading it runs the twin, which checks a
+        # running watchdog against its last feed
+        now = time.ticks_us()
         self.wdt_timeout_ms = timeout_ms
-        self._wdt_last = time.ticks_us()
+        self._wdt_last = now
 
     def _wdt_enable(self, on):
         if on and not self.wdt_timeout_ms and self._wdt_saved:
+            now = time.ticks_us()
             self.wdt_timeout_ms = self._wdt_saved
-            self._wdt_last = time.ticks_us()
+            self._wdt_last = now
         elif not on and self.wdt_timeout_ms:
             self._wdt_saved = self.wdt_timeout_ms
             self.wdt_timeout_ms = 0
