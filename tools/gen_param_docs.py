@@ -127,7 +127,8 @@ def _anchor(title: str) -> str:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog="gen_param_docs", description="Generate the parameter reference, docs/user/parameters.md.")
+    parser = argparse.ArgumentParser(prog="gen_param_docs",
+                                     description="Generate the parameter reference, docs/user/parameters.md.")
     parser.add_argument("--out", type=Path, default=default_out())
     parser.add_argument("--check", action="store_true", help="exit 1 if the committed file differs")
     args = parser.parse_args(argv)
