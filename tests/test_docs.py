@@ -258,7 +258,8 @@ def parse_error(script: str, argv: list[str]) -> str:
 #: A path of this repository as the docs write one in code: ``sim/twin/board/``, ``tests/test_x.py``.
 _REPO_PATH = re.compile(r"(?:shared|firmware|sim|ground|tools|tests|docs)/[\w./*-]*|[A-Z][A-Z_]*\.md")
 #: ... unless it is another project's (``MicroPython's `tests/run-perfbench.py```).
-_THEIRS = re.compile(r"\b(?!README\b|RoboRay\b)[A-Z][\w.-]*'s\s+$|\b(?i:pymavlink|mavproxy|micropython|ardupilot)'s\s+$")
+_THEIRS = re.compile(r"\b(?!README\b|RoboRay\b)[A-Z][\w.-]*'s\s+$"
+                     r"|\b(?i:pymavlink|mavproxy|micropython|ardupilot)'s\s+$")
 
 
 def named_paths(path: Path):
@@ -374,12 +375,13 @@ def test_a_file_a_doc_names_must_exist_unless_it_is_another_projects(tmp_path, m
     (tmp_path / "tests" / "test_a.py").write_text("")
     doc = tmp_path / "d.md"
     doc.write_text("`tests/test_a.py`, `tests/test_*.py`, `NOTES.md`, `tests/test_b.py::test_x`,\n"
-                   "MicroPython's `tests/run-perfbench.py`, `tests/test_c*.py`, `roboray-sim`, the project's `docs/x.md`\n"
+                   "MicroPython's `tests/run-perfbench.py`, `tests/test_c*.py`, `roboray-sim`,\n"
+                   "the project's `docs/x.md`\n"
                    "```\n`tests/in_a_block.py`\n```\n")
     assert missing_paths(doc) == ["d.md:1: NOTES.md is not in the repository",
                                   "d.md:1: tests/test_b.py is not in the repository",
                                   "d.md:2: tests/test_c*.py is not in the repository",
-                                  "d.md:2: docs/x.md is not in the repository"]
+                                  "d.md:3: docs/x.md is not in the repository"]
 
 
 def test_links_out_of_the_repository_and_the_old_sibling_folder_are_found(tmp_path, monkeypatch):
