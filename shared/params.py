@@ -10,12 +10,13 @@ this API, which is stable:
 ``count()``
     number of parameters; indices run 0 .. count()-1 in declaration order.
 ``index(name) -> int``
-    index of ``name`` (a str), -1 if unknown; a dict look-up, no allocation.
+    index of ``name`` (a str), -1 if unknown; a hash look-up, no allocation.
 ``find(buf, offset, length) -> int``
     the same for a name held in bytes (a MAVLink ``param_id``: up to 16
     bytes, NUL-padded when shorter), without building a str.
 ``name(i)``, ``type(i)``, ``minimum(i)``, ``maximum(i)``, ``default(i)``, ``flags(i)``
-    the declaration of parameter ``i``; ``type`` is a ``MAV_PARAM_TYPE``.
+    the declaration of parameter ``i``; ``type`` is a ``MAV_PARAM_TYPE``;
+    ``name`` (str) and ``name_bytes`` (bytes) make a new object each call.
 ``get(i) -> float``
     current value (integers are exact as floats up to 2**24).
 ``set(i, value) -> int``
@@ -87,8 +88,11 @@ class ParamTable:
 
     def __init__(self, decls):
         n = len(decls)
-        self._names = []
-        self._bnames = []
+        # The names in one bytes object (``_at[i]`` to ``_at[i + 1]``), not
+        # a list of str and bytes: 79 small objects a collection would
+        # scan, and a list pushing them all onto its mark stack at once
+        # (``firmware/collector.py``).
+        self._at = array("H", [0] * (n + 1))
         self._types = bytearray(n)
         self._flags = bytearray(n)
         self._default = array("f", [0.0] * n)
@@ -96,11 +100,13 @@ class ParamTable:
         self._max = array("f", [0.0] * n)
         self._imin = array("l", [0] * n)  # integer limits: compared without boxing a float
         self._imax = array("l", [0] * n)
+        self._idefault = array("l", [0] * n)
         self._ival = array("l", [0] * n)   # integer types: exact
         self._fval = array("f", [0.0] * n)  # REAL32
-        self._index = {}
         self._hashed = {}
         self.version = 0
+        names = []
+        seen = {}
         for i in range(n):
             d = decls[i]
             if len(d) not in (5, 6):
@@ -108,7 +114,7 @@ class ParamTable:
             name, ptype, default, lo, hi = d[0], d[1], d[2], d[3], d[4]
             if not isinstance(name, str) or not 0 < len(name) <= NAME_LEN:
                 raise ValueError("parameter name %r must be 1..16 characters" % (name,))
-            if name in self._index:
+            if name in seen:
                 raise ValueError("parameter %s declared twice" % name)
             if ptype != TYPE_REAL32 and ptype not in _LIMITS:
                 raise ValueError("parameter %s: unsupported type %r" % (name, ptype))
@@ -118,8 +124,10 @@ class ParamTable:
                     raise ValueError("parameter %s: limits %r..%r do not fit its type" % (name, lo, hi))
             if not lo <= default <= hi:
                 raise ValueError("parameter %s: default %r outside %r..%r" % (name, default, lo, hi))
-            self._names.append(name)
-            self._bnames.append(name.encode())
+            seen[name] = i
+            b = name.encode()
+            names.append(b)
+            self._at[i + 1] = self._at[i] + len(b)
             self._types[i] = ptype
             self._flags[i] = d[5] if len(d) == 6 else 0
             self._default[i] = default
@@ -128,20 +136,44 @@ class ParamTable:
             if ptype != TYPE_REAL32:
                 self._imin[i] = int(lo)
                 self._imax[i] = int(hi)
-            self._index[name] = i
-            b = self._bnames[i]
+                self._idefault[i] = int(default)
             h = _hash(b, 0, len(b))
             self._hashed[h] = -2 if h in self._hashed else i  # -2: collision, scan
-        self._decl_defaults = [d[2] for d in decls]
+        self._names = b"".join(names)
         self.defaults()
         self.version = 0
 
     # ------------------------------------------------------------ look-up
     def count(self):
-        return len(self._names)
+        return len(self._types)
 
     def index(self, name):
-        return self._index.get(name, -1)
+        n = len(name)
+        if not 0 < n <= NAME_LEN:
+            return -1
+        h = 0
+        for k in range(n):
+            # a one-character str is an interned qstr on MicroPython: no allocation
+            h = (h * 31 + ord(name[k])) & 0xFFFFFF
+        i = self._hashed.get(h, -1)
+        if i >= 0:
+            return i if self._same_str(i, name) else -1
+        if i == -2:
+            for j in range(len(self._types)):
+                if self._same_str(j, name):
+                    return j
+        return -1
+
+    def _same_str(self, i, name):
+        names = self._names
+        a = self._at[i]
+        n = self._at[i + 1] - a
+        if n != len(name):
+            return False
+        for k in range(n):
+            if ord(name[k]) != names[a + k]:
+                return False
+        return True
 
     def find(self, buf, offset, length=NAME_LEN):
         """Index of the NUL-padded name in ``buf[offset:offset+length]``, or -1."""
@@ -149,27 +181,29 @@ class ParamTable:
         if i >= 0:
             return i if self._same(i, buf, offset, length) else -1
         if i == -2:
-            for j in range(len(self._bnames)):
+            for j in range(len(self._types)):
                 if self._same(j, buf, offset, length):
                     return j
         return -1
 
     def _same(self, i, buf, offset, length):
-        b = self._bnames[i]
-        n = len(b)
+        names = self._names
+        a = self._at[i]
+        n = self._at[i + 1] - a
         if n > length:
             return False
         for k in range(n):
-            if buf[offset + k] != b[k]:
+            if buf[offset + k] != names[a + k]:
                 return False
         return n == length or buf[offset + n] == 0
 
     def name(self, i):
-        return self._names[i]
+        return self.name_bytes(i).decode()
 
     def name_bytes(self, i):
-        """The name as bytes (what goes into a MAVLink ``param_id``)."""
-        return self._bnames[i]
+        """The name as bytes (what goes into a MAVLink ``param_id``; a new
+        object: the names share one)."""
+        return self._names[self._at[i]:self._at[i + 1]]
 
     def type(self, i):
         return self._types[i]
@@ -199,14 +233,14 @@ class ParamTable:
         return self._ival[i]
 
     def set(self, i, value):
-        if not 0 <= i < len(self._names):
+        if not 0 <= i < len(self._types):
             return ERR_INDEX
         if self._flags[i] & READ_ONLY:
             return ERR_READ_ONLY
         return self._store(i, value)
 
     def set_by_name(self, name, value):
-        i = self._index.get(name, -1)
+        i = self.index(name)
         if i < 0:
             return ERR_UNKNOWN
         return self.set(i, value)
@@ -233,10 +267,9 @@ class ParamTable:
 
     def defaults(self):
         """Every parameter to its declared default (read-only ones included)."""
-        d = self._decl_defaults
-        for i in range(len(self._names)):
+        for i in range(len(self._types)):
             if self._types[i] == TYPE_REAL32:
-                self._fval[i] = d[i]
+                self._fval[i] = self._default[i]
             else:
-                self._ival[i] = int(d[i])
+                self._ival[i] = self._idefault[i]
         self.version += 1
