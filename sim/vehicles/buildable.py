@@ -36,6 +36,23 @@ inside the servo's envelope and within its listed mass's uncertainty. The
 dome (acrylic, 3 mm wall) fails near 29 bar by DeepSea's "Under Pressure"
 calculation for a 100 mm, 3 mm acrylic dome (philipmcgaw.com, "ROV
 viewport dome"); the Bar30 is rated to 30 bar (Blue Robotics).
+
+Flying it: the firmware takes no vehicle file. Two tables compiled into the
+board code come from one, the reference's as committed:
+``shared/control/allocation_table.py`` (which wing angles give a glide) and
+``shared/control/plant_tables.py`` (the thesis controller's model). The
+cascade controller closes its guidance loop on the estimated position, so
+the reference's tables fly this vehicle too: ``roboray-sim sil --scenario
+target-landing --vehicle sim/vehicles/buildable.py`` lands 0.014 m from the
+target (seed 0, WebAssembly and CPython alike). Its own tables come from the
+generators, ``python -m roboray.tools.gen_allocation --vehicle
+sim/vehicles/buildable.py`` and ``python -m roboray.tools.gen_plant
+--vehicle sim/vehicles/buildable.py`` (they overwrite the committed files;
+``--out`` writes elsewhere), then ``roboray-flash``; with them the same run
+lands 0.014 m off as well. They differ where the vehicles do: its symmetric
+fall is slower (0.30 m/s at 30 deg mean fold against 0.36) and its reach a
+little shorter (glide ratio 0.43 with two wings up against the reference's
+0.49). No parameter needs changing.
 """
 
 import math
