@@ -192,6 +192,12 @@ def test_current_mode_streams_once_asked_goes_on_a_change_and_keeps_what_the_ope
             if wait(gcs, "CURRENT_MODE", timeout=0.2) is not None:
                 n += 1
         assert 1 <= n <= 3     # 0.5 Hz (with the heartbeat, every other one)
+        # disarmed, TARGET is chosen without a target; arming in it is refused (ArduCopter's rule)
+        mode = dev.MAV_CMD_DO_SET_MODE
+        assert command(gcs, mode, dev.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, M.CUSTOM[M.TARGET]).result == 0
+        a = command(gcs, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        assert a.result == dev.MAV_RESULT_FAILED and M.REASONS[a.result_param2] == M.NO_TARGET
+        assert command(gcs, mode, dev.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, M.CUSTOM[M.PASSIVE]).result == 0
         set_target(gcs)
         assert command(gcs, dev.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == dev.MAV_RESULT_ACCEPTED
         # the standard mode MISSION is TARGET; CURRENT_MODE says so at once
