@@ -43,7 +43,7 @@ board code come from one, the reference's as committed:
 ``shared/control/plant_tables.py`` (the thesis controller's model). The
 cascade controller closes its guidance loop on the estimated position, so
 the reference's tables fly this vehicle too: ``roboray-sim sil --scenario
-target-landing --vehicle sim/vehicles/buildable.py`` lands 0.014 m from the
+target-landing --vehicle sim/vehicles/buildable.py`` lands 0.016 m from the
 target (seed 0, WebAssembly and CPython alike). Its own tables come from the
 generators, ``python -m roboray.tools.gen_allocation --vehicle
 sim/vehicles/buildable.py`` and ``python -m roboray.tools.gen_plant
@@ -68,7 +68,7 @@ RHO_STEEL = 7850.0      # kg/m^3, structural steel S235 (EN 10025)
 # ----------------------------------------------------------------- geometry
 THICKNESS = 0.003       # m, chosen: 3 mm sheet for plate and wings (stock size of both)
 PLATE_SIDE = 0.140      # m, chosen: the dome (100 mm) plus a 13 mm servo and its wing hinge on each side
-WING_HEIGHT = 0.150     # m, chosen: hinge to tip; span 0.44 m tip to tip, the reference's 0.38 m scaled to a buildable plate
+WING_HEIGHT = 0.180     # m, chosen: hinge to tip, 0.50 m tip to tip; for reach: two wings up glide at 0.47 (150 mm wings: 0.43)
 DOME_OD = 0.100         # m, part: 100 mm clear acrylic hemisphere (ROV/CCTV viewport dome, philipmcgaw.com)
 DOME_WALL = 0.003       # m, part: "about 3 mm thick" (same source)
 
@@ -82,8 +82,8 @@ SERVO_MASS = 0.0219             # kg, part
 SERVO_VOLUME = 0.029 * 0.013 * 0.030  # m^3, part: its box (the horn and cable gland add <1 cm^3)
 SERVO_HEIGHT = 0.0065           # m, part: half of its 13 mm width, lying flat
 # Hinge moment it must hold (check, not an input): a wing's normal force at
-# 0.3 m/s, 0.5 rho cd v^2 A = 0.6 N, at a third of its height (50 mm) is
-# 0.03 N m, a twelfth of the stall torque at 6 V.
+# 0.3 m/s, 0.5 rho cd v^2 A = 0.73 N, at a third of its height (60 mm) is
+# 0.044 N m, an eighth of the stall torque at 6 V.
 
 # --------------------------------------------------------------- dry parts
 # Everything inside the dome, as (name, part, mass kg, centroid (x, y, z) m,
@@ -195,7 +195,7 @@ VEHICLE = VehicleParams(
     payload_thickness=PAYLOAD["thickness"],  # from the parts' spread
     payload_height=PAYLOAD["height"],        # from the parts' centroid
     servo_tau=0.05,             # s, assumed as the reference: the servo's position loop
-    servo_rate=math.radians(60.0) / 0.20,  # rad/s, part: 0.20 s/60 deg (at 4.8 V; 0.17 s at 6 V, slower loaded)
+    servo_rate=math.radians(60.0) / 0.20,  # rad/s, part: 0.17 s/60 deg unloaded at the regulator's 6 V; 0.20 s (its 4.8 V figure) for the wing's load and an oil fill
     servo_min=0.0,              # rad, flat
     servo_max=math.pi / 2,      # rad, folded up beside the dome
     imu_position=IMU_POSITION,  # m, from the parts table
