@@ -14,8 +14,8 @@ What each number is, in the comments:
 - **assumed**: not published; a measured or estimated value a builder should
   replace with the scale reading of their own part (the file is meant to be
   copied and edited);
-- **chosen**: a design decision (plate size, wing size, ballast thickness),
-  with the reason.
+- **chosen**: a design decision (plate size, wing size, the ballast bars
+  and where the parts sit), with the reason.
 
 Layout (body frame of ``sim/vehicle.py``: origin at the centre of the plate's
 mid-plane, z down, the dome on the -z side): a 3 mm 5052 aluminium plate
@@ -31,11 +31,15 @@ to 10 m). The servos limit it, not the dome: the HS-5086WP is rated IP67
 O-ring and case seams see 1 bar per 10 m and water creeps in over a dive.
 For 10 m, fill each servo with mineral oil (pressure-compensated, the common
 ROV practice: the oil has no air to compress, so the case sees no pressure
-difference) or accept re-sealing after a few dives. The oil's mass is
-inside the servo's envelope and within its listed mass's uncertainty. The
-dome (acrylic, 3 mm wall) fails near 29 bar by DeepSea's "Under Pressure"
-calculation for a 100 mm, 3 mm acrylic dome (philipmcgaw.com, "ROV
-viewport dome"); the Bar30 is rated to 30 bar (Blue Robotics).
+difference) or accept re-sealing after a few dives. The oil adds about 2 g
+a servo (assumed: some 3 cm^3 of free air at 0.85 g/cm^3), not counted
+here: add it to ``SERVO_MASS`` if you fill them. Torque and speed do not
+change with depth (the pressure acts on all sides); an oil fill slows the
+servo a little, which ``servo_rate`` below allows for. The dome (acrylic,
+3 mm wall) fails near 29 bar by DeepSea's "Under Pressure" calculation for
+a 100 mm, 3 mm acrylic dome (philipmcgaw.com, "ROV viewport dome", whose
+author calls his dimensions approximate), far below 10 m's 1 bar; the Bar30
+is rated to 30 bar (Blue Robotics).
 
 Flying it: the firmware takes no vehicle file. Two tables compiled into the
 board code come from one, the reference's as committed:
