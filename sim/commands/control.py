@@ -209,13 +209,14 @@ def _mc_text(r: dict) -> str:
 
 def landings_figure(results: list, summary: dict):
     """Landing points relative to their targets, with the requirement (p95
-    within 0.5 m) and what these landings achieved, as a matplotlib figure."""
+    within 0.5 m) and what these landings achieved, as a matplotlib figure:
+    left at the requirement's scale, right close up."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.6))
     east, north = [], []
     for r in results:
         if r.get("landing_position") is None:
@@ -223,22 +224,26 @@ def landings_figure(results: list, summary: dict):
         tn, te = r["target"]
         east.append(r["landing_position"][1] - te)
         north.append(r["landing_position"][0] - tn)
-    ax.plot(east, north, "b.", ms=5, label="landings (%d of %d runs)" % (len(east), len(results)))
-    ax.plot([0], [0], "g+", ms=12, mew=2, label="target")
-    ax.add_patch(plt.Circle((0, 0), 0.5, fill=False, ls="--", color="C3", label="required: p95 within 0.5 m"))
     p95 = summary.get("landing_error_p95_m")
-    if p95:
-        ax.add_patch(plt.Circle((0, 0), p95, fill=False, ls=":", color="C0",
-                                label="p95 of these landings, %.3f m" % p95))
-    ax.set_aspect("equal")
-    lim = max(0.6, 1.1 * (summary["landing_error_worst_m"] or 0.6))
-    ax.set_xlim(-lim, lim)
-    ax.set_ylim(-lim, lim)
-    ax.set_xlabel("east of the target (m)")
-    ax.set_ylabel("north of the target (m)")
-    ax.set_title("%d landings: p50 %.3f m, p95 %.3f m" % (summary["runs"], summary["landing_error_p50_m"] or 0.0,
+    worst = summary.get("landing_error_worst_m") or (max(np.hypot(east, north)) if east else 0.0)
+    for ax, lim in ((axes[0], max(0.6, 1.1 * worst)), (axes[1], max(0.02, 1.25 * worst))):
+        ax.plot(east, north, "b.", ms=5, label="landings (%d of %d runs)" % (len(east), len(results)))
+        ax.add_patch(plt.Circle((0, 0), 0.5, fill=False, ls="--", color="C3", label="required: p95 within 0.5 m"))
+        if p95:
+            ax.add_patch(plt.Circle((0, 0), p95, fill=False, ls="-", lw=1.5, color="C1", zorder=3,
+                                    label="p95 of these landings, %.3f m" % p95))
+        ax.plot([0], [0], "g+", ms=14, mew=2, zorder=4, label="target")
+        ax.set_aspect("equal")
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_xlabel("east of the target (m)")
+        ax.set_ylabel("north of the target (m)")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_title("against the requirement", fontsize=10)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[1].set_title("close up", fontsize=10)
+    fig.suptitle("%d landings: p50 %.3f m, p95 %.3f m" % (summary["runs"], summary["landing_error_p50_m"] or 0.0,
                                                           p95 or 0.0))
-    ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     return fig
 
