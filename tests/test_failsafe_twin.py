@@ -108,8 +108,10 @@ def test_warnings_change_nothing_but_are_reported_and_an_action_set_off_raises_n
             params={"BATT_LOW_TIMER": 2, "FS_DEPTH_MAX": 2.0, "FS_LEAK_ENABLE": 0})
     assert set(names(r)) == {"compass", "battery low", "loop overruns", "max depth"}
     # the pack crosses 6.6 V 1.6 s into the sag, the driver's 1 s filter a
-    # second later, then BATT_LOW_TIMER (2 s)
-    assert 16.0 <= first(r, "battery low") <= 17.5
+    # second later, then BATT_LOW_TIMER (2 s); the overload from 15 s makes
+    # every clock reading cost 300 us, so the loop's overrun slots (and the
+    # battery task with them) run late by a few tenths
+    assert 16.0 <= first(r, "battery low") <= 18.0
     for name in ("compass", "battery low", "loop overruns", "max depth"):
         assert "Failsafe: %s, warning" % name in texts(r)
     for bit in (F.COMPASS, F.BATTERY, F.OVERRUN, F.MAX_DEPTH):
