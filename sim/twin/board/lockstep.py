@@ -117,6 +117,9 @@ class Lockstep:
         """The board's file system, fresh after a power cut; its flash
         writes stall the board when code takes time."""
         f = PowerCutFiles(Files(), 0)
+        # a powercut fault cuts at a step of the parameter save (faults.py):
+        # the flight log's and the dive state's writes do not count
+        f.counted = "params.bin"
         if self.bt is not None:
             f.flash = self.bt.flash
         return f

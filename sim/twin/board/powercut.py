@@ -21,15 +21,16 @@ class PowerCut(BaseException):
 
 
 class _File:
-    def __init__(self, owner, f):
+    def __init__(self, owner, f, counted=True):
         self._owner = owner
         self._f = f
+        self._counted = counted
 
     def write(self, data):
         owner = self._owner
         if owner.flash is not None:
             owner.flash("write", len(data))
-        if owner.step():
+        if owner.step(self._counted):
             self._f.write(data[:len(data) // 2])
             self._f.close()
             raise PowerCut("power cut writing %d bytes" % len(data))
@@ -46,7 +47,7 @@ class _File:
             raise PowerCut("power is off")
         if owner.flash is not None:
             owner.flash("close")
-        if owner.step():
+        if owner.step(self._counted):
             self._f.close()
             raise PowerCut("power cut closing the file")
         self._f.close()
@@ -63,14 +64,24 @@ class PowerCutFiles:
         #: ``flash(kind, nbytes=0)``: charges each flash-changing step's
         #: stall to the board's time (``boardtime.BoardTime.flash``), or None.
         self.flash = None
+        #: Only steps on paths holding this count towards ``cut_at`` (the
+        #: twin: the parameter file, whose save ``powercut:N`` cuts at its
+        #: N-th step); None: every step. The others still charge their
+        #: stall, and fail once the power is off.
+        self.counted = None
+
+    def _counts(self, path):
+        return self.counted is None or self.counted in path
 
     def alive(self):
         if self.dead:
             raise PowerCut("power is off")
 
-    def step(self):
+    def step(self, counted=True):
         """Count one flash-changing step; True when the power goes now."""
         self.alive()
+        if not counted:
+            return False
         self.steps += 1
         if self.cut_at and self.steps == self.cut_at:
             self.dead = True
@@ -82,24 +93,25 @@ class PowerCutFiles:
             f = self._files.open(path, mode)  # truncated even if the cut comes now
             if self.flash is not None:
                 self.flash("open")
-            if self.step():
+            counted = self._counts(path)
+            if self.step(counted):
                 f.close()
                 raise PowerCut("power cut opening %s" % path)
-            return _File(self, f)
+            return _File(self, f, counted)
         self.alive()
         return self._files.open(path, mode)
 
     def rename(self, old, new):
         if self.flash is not None:
             self.flash("rename")
-        if self.step():
+        if self.step(self._counts(old)):
             raise PowerCut("power cut before renaming %s" % old)
         self._files.rename(old, new)
 
     def remove(self, path):
         if self.flash is not None:
             self.flash("remove")
-        if self.step():
+        if self.step(self._counts(path)):
             raise PowerCut("power cut before removing %s" % path)
         self._files.remove(path)
 
@@ -110,7 +122,7 @@ class PowerCutFiles:
     def mkdir(self, path):
         if self.flash is not None:
             self.flash("open")   # a metadata commit, as creating a file
-        if self.step():
+        if self.step(self._counts(path)):
             raise PowerCut("power cut before making %s" % path)
         self._files.mkdir(path)
 
