@@ -73,7 +73,8 @@ RHO_STEEL = 7850.0      # kg/m^3, structural steel S235 (EN 10025)
 # ----------------------------------------------------------------- geometry
 THICKNESS = 0.003       # m, chosen: 3 mm sheet for plate and wings (stock size of both)
 PLATE_SIDE = 0.140      # m, chosen: the dome (100 mm) plus a 13 mm servo and its wing hinge on each side
-WING_HEIGHT = 0.180     # m, chosen: hinge to tip, 0.50 m tip to tip; for reach: two wings up glide at 0.47 (150 mm wings: 0.43)
+# m, chosen: hinge to tip, 0.50 m tip to tip, for reach: two wings up glide at 0.47 (150 mm wings: 0.43)
+WING_HEIGHT = 0.180
 DOME_OD = 0.100         # m, part: 100 mm clear acrylic hemisphere (ROV/CCTV viewport dome, philipmcgaw.com)
 DOME_WALL = 0.003       # m, part: "about 3 mm thick" (same source)
 
@@ -200,7 +201,8 @@ VEHICLE = VehicleParams(
     payload_thickness=PAYLOAD["thickness"],  # from the parts' spread
     payload_height=PAYLOAD["height"],        # from the parts' centroid
     servo_tau=0.05,             # s, assumed as the reference: the servo's position loop
-    servo_rate=math.radians(60.0) / 0.20,  # rad/s, part: 0.17 s/60 deg unloaded at the regulator's 6 V; 0.20 s (its 4.8 V figure) for the wing's load and an oil fill
+    # rad/s, part: 0.17 s/60 deg unloaded at the regulator's 6 V; 0.20 s (its 4.8 V figure) for the load and oil
+    servo_rate=math.radians(60.0) / 0.20,
     servo_min=0.0,              # rad, flat
     servo_max=math.pi / 2,      # rad, folded up beside the dome
     imu_position=IMU_POSITION,  # m, from the parts table

@@ -57,7 +57,8 @@ VEHICLE = VehicleParams(
     dlambda_wing=0.6,
     kx_wing=0.75,
     ky_wing=0.15,
-    dome_radius=0.074530599,    # m, fitted to an assumed 0.30 m/s flat descent (the thesis's sec. 5.2.1 starts at 0.3 m/s, wings at 45 deg)
+    # m, fitted to an assumed 0.30 m/s flat descent (the thesis's sec. 5.2.1 starts at 0.3 m/s, wings at 45 deg)
+    dome_radius=0.074530599,
     dome_shell_thickness=0.002,  # m, assumed: an acrylic dome wall
     dome_density=1190.0,        # kg/m^3, assumed: acrylic
     servo_mass=0.016,           # kg, assumed: a waterproof micro servo
