@@ -132,7 +132,8 @@ def test_estimator_errors_start_once_valid_and_yaw_does_not_wrap(estimator_run):
         after = xe >= first_valid
         assert np.abs(ye[after] - y[after]).max() < 20.0   # drawn on the truth's turn
         nav = axes["navigation error (cm, cm/s)"]
-        assert all(line.get_data()[0][0] >= first_valid - 0.05 for line in nav.get_lines() if len(line.get_data()[0]) > 2)
+        curves = [line.get_data()[0] for line in nav.get_lines() if len(line.get_data()[0]) > 2]
+        assert curves and all(x[0] >= first_valid - 0.05 for x in curves)
         check_style(fig)
     finally:
         plt.close(fig)
