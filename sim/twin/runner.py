@@ -916,7 +916,9 @@ class Twin:
             "startup_s": round(startup, 3),
             "real_time_factor": round(duration / wall, 2) if wall > 0 else None,
             "released_at_s": w.released_at,
-            "armed_at_s": g.armed_at,
+            # the board's own arming (as the text says), not when the ground
+            # next heard a heartbeat with the flag (up to a second later)
+            "armed_at_s": next((t for t, what in self.arming_log if what == "armed"), None),
             "board_fs": ({"folder": self.options.board_fs, "files": self.board_files}
                          if self.options.board_fs else None),
             "landed": w.landed_at is not None,
