@@ -130,7 +130,9 @@ def test_nmea_over_udp_reaches_the_vehicle_in_metres_at_its_measurement_time(veh
     assert r["origin"] == {"lat_deg": ORIGIN[0], "lon_deg": ORIGIN[1], "from": "--origin"}
     assert r["vehicle_clock"]["via"] == "TIMESYNC" and r["viso_delay_ms"] == 210
     got = Received(vehicle)
-    assert got.count - before == 3
+    # (at least: the shared vehicle may still have been taking the previous
+    # test's last fix when ``before`` was read; r["out"] counts ours exactly)
+    assert got.count - before >= 3
     last = r["last_fix"]
     assert got.fix[0] == pytest.approx(last["north_m"], abs=1e-4) and got.fix[1] == pytest.approx(last["east_m"], abs=1e-4)
     assert math.isnan(got.fix[2]) and got.time_us == last["time_usec"]
