@@ -109,6 +109,7 @@ EV_NOT_LANDED = const(28)      # moving again
 #: ERR: ``Subsys`` is 100 + the failsafe's bit (firmware/failsafe.py), ``ECode`` 1 raised, 0 cleared.
 ERR_FAILSAFE_BASE = const(100)
 
+_RING_MIN_KB = const(4)      # the smallest ring worth logging into
 CHUNK = const(4096)            # bytes a flush writes at most: one littlefs block
 FLUSH_EVERY = const(10)        # calls between flushes (0.2 s at 50 Hz: 20 kB/s)
 STILL_MPS = 0.05
@@ -164,7 +165,18 @@ class FlightLog:
         self._i_mask = params.index("LOG_BITMASK")
         self._i_disarmed = params.index("LOG_DISARMED")
         kb = params.get_int(params.index("LOG_FILE_BUFSIZE"))
-        self.w = df.Writer(kb * 1024)
+        #: kB of ring the heap gave: LOG_FILE_BUFSIZE, or half of it again
+        #: and again when no block that large is free (a fragmented heap)
+        self.ring_kb = kb
+        while True:
+            try:
+                self.w = df.Writer(kb * 1024)
+                break
+            except MemoryError:
+                if kb <= _RING_MIN_KB:
+                    raise
+                kb //= 2
+        self.ring_kb = kb
         self.clock = df.Clock()
         self._last_us = ticks_us()
         self._euler = array("f", [0.0, 0.0, 0.0])
