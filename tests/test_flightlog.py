@@ -111,9 +111,11 @@ def test_a_full_buffer_thins_then_drops_new_records_and_says_so(tmp_path):
     b.run(5.0, armed=True)                  # rest: flushed, and told
     b.run(3.0, armed=False)
     _, msgs = read(tmp_path / "logs" / "00000001.BIN")
+    imu = [m.TimeUS for m in msgs if m.get_type() == "IMU"]
     att = [m.TimeUS for m in msgs if m.get_type() == "ATT"]
-    # thinned to 5 Hz before it filled: gaps of 200 ms appear
-    assert 200_000 in {b2 - a for a, b2 in zip(att, att[1:])}
+    # thinned before it filled: IMU to 5 Hz (gaps of 200 ms), ATT kept at 25 Hz
+    assert 200_000 in {b2 - a for a, b2 in zip(imu, imu[1:])}
+    assert 200_000 not in {b2 - a for a, b2 in zip(att, att[1:])}
     texts = [m.Message for m in msgs if m.get_type() == "MSG"]
     assert any("records dropped" in t for t in texts)
     pm = [m for m in msgs if m.get_type() == "PM"]

@@ -21,15 +21,18 @@ readable log; parameters changed after it was prepared are recorded again
 at arming. A log started by a reset in the water waits for the vehicle to
 rest. A prepared log no dive used is used again by the next one.
 
-What the ring holds (default ``LOG_FILE_BUFSIZE`` 80 kB, every record
-enabled): the records below come at ~2.4 kB/s, so ~30 s of dive at full
-rate, the thesis's 10 m drop (~25 s) and its rest before the flush; with
-less than a tenth free the recording thins (ATT and IMU to 5 Hz; MAG,
-RCOU and WING stop); when full, new records are dropped (never old ones),
-counted (PM ``Drop``) and told in a MSG at the next flush. Events (MODE,
-MSG, EV, ERR, FIX) are never thinned. A deeper dive wants a bigger ring;
-its cost is in the collector, which scans it
-(``docs/design/flight-log.md``).
+What the ring holds (default ``LOG_FILE_BUFSIZE`` 48 kB, every record
+enabled): the records below come at ~2.4 kB/s, ~15 s of dive at full rate
+until a quarter is left; then the recording thins (IMU to 5 Hz; MAG, RCOU
+and WING stop; ATT stays at 25 Hz: ~1.1 kB/s) for ~11 s more: the
+thesis's 10 m drop (~25 s) with ATT at 25 Hz throughout. When full, new
+records are dropped (never old ones), counted (PM ``Drop``) and told in a
+MSG at the next flush. Events (MODE, MSG, EV, ERR, FIX) are never thinned.
+Why not more: the heap must hold the loop's garbage between two
+collections (every 300 ms) beside the firmware's live objects; with an
+80 kB ring an allocation found it full and collected in the middle of a
+task (a 63 ms stall, the IMU's FIFO overrun, a depth failsafe on
+rp2350-emu). The collector also scans the ring (``docs/design/flight-log.md``).
 
 Records and rates (the log task runs at 50 Hz; ``LOG_BITMASK`` bit in
 brackets):
@@ -70,7 +73,7 @@ except ImportError:  # CPython
 
 PARAMS = (
     ("LOG_BITMASK", TYPE_INT32, 255, 0, 255),        # records kept (bits above)
-    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 80, 8, 160),    # kB of RAM for the ring
+    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 48, 8, 160),    # kB of RAM for the ring
     ("LOG_DISARMED", TYPE_UINT8, 0, 0, 1),           # 1: log while disarmed too
 )
 
@@ -118,7 +121,7 @@ _NOT_STILL = -0.05             # -STILL_MPS, made once (a negation boxes a float
 STILL_S = 3
 _CALL_HZ = const(50)
 _STILL_CALLS = const(150)      # STILL_S at 50 Hz
-_THIN_FRACTION = const(10)     # thin out below a tenth free
+_THIN_FRACTION = const(4)      # thin out below a quarter free
 #: The stall a chunk's write costs at most, announced first (ms): a sector
 #: erase (45 ms), 16 page programs (6.4 ms), a close's metadata commit
 #: and, now and then, a metadata compaction (another erase).
@@ -201,6 +204,7 @@ class FlightLog:
         self._overruns = 0
         self._slots = 0
         self.chunks = 0               # chunks written to flash
+        self.skipped = 0              # calls the loop had no room for (the application's count)
         self.logs_started = 0
 
     # ------------------------------------------------------------ time
@@ -425,7 +429,7 @@ class FlightLog:
         thin = w.free() * _THIN_FRACTION < w.size
         refresh = self.refresh
         self._now()
-        if not thin or n % 10 < 2:      # thinned: ATT and IMU at 5 Hz
+        if not thin or n % 10 < 2 or n & 1 == 0:      # thinned: IMU at 5 Hz, ATT kept
             if n & 1 == 0:
                 if mask & B_ATT:
                     if refresh is not None:
