@@ -204,7 +204,6 @@ class FlightLog:
         self._overruns = 0
         self._slots = 0
         self.chunks = 0               # chunks written to flash
-        self.skipped = 0              # calls the loop had no room for (the application's count)
         self.logs_started = 0
 
     # ------------------------------------------------------------ time
