@@ -38,6 +38,7 @@ end of its collection (the scheduler's own ``work``), ``FLASH`` a flash
 stall. The host turns them into per-task mean, p99 and max.
 """
 
+import sys
 from array import array
 
 try:
@@ -154,7 +155,7 @@ class BoardTime:
         if n >= _RECORDS:
             self.lost += 1
             return
-        m = self._modes
+        m = self._modes if self.source == "model" else _vehicle_modes()
         mode = m.state if m is not None else 0
         self.records[n] = (kind << 24) | (mode << 21) | (us if us < _US_MAX else _US_MAX)
         self.n = n + 1
@@ -169,8 +170,11 @@ class BoardTime:
     def instrument(self, sched, modes):
         """Time every task and the collection of ``sched`` (and charge them,
         for the model). Called as the loop starts; ``modes``: the vehicle's
-        ``Modes`` (the model's costs depend on its ``state``)."""
-        self._modes = modes
+        ``Modes`` (the model's costs depend on its ``state``). On the
+        emulated board the records look the vehicle's modes up instead of
+        keeping them: a twin object holding the firmware's would tie the two
+        into one cycle for the firmware's collector (``firmware/collector.py``)."""
+        self._modes = modes if self.source == "model" else None
         self.names = list(sched.names)
         fns = sched._fns
         emu = self.source == "emu"
@@ -281,6 +285,12 @@ class BoardTime:
 
 def _nothing():
     pass
+
+
+def _vehicle_modes():
+    app = sys.modules.get("roboray.firmware.app")
+    v = app.vehicle if app is not None else None
+    return v.modes if v is not None else None
 
 
 def bracket_emulation(machine, bt):

@@ -54,7 +54,6 @@ import hostlink
 import machine
 import time
 
-from roboray.firmware import app
 from roboray.firmware.param_store import Files
 from roboray.sim.twin.board import boardtime, vclock
 from roboray.sim.twin.board.lis3mdl_device import LIS3MDLDevice
@@ -121,10 +120,15 @@ class Lockstep:
         # the flight log's and the dive state's writes do not count
         f.counted = "params.bin"
         if self.bt is not None:
-            f.flash = self.bt.flash
+            f.board_time = self.bt
         return f
 
     # ------------------------------------------------------------- the hook
+    def __call__(self, dt):
+        # the clock's hook is this object, not its bound method: the
+        # firmware's collector orders what it can see (firmware/collector.py)
+        self.hook(dt)
+
     def hook(self, dt):
         if self._inside:
             return  # the twin's own clock readings (UART pacing, the watchdog)
@@ -173,6 +177,7 @@ class Lockstep:
             self.twin.set_pin(LEAK_PIN, int(leak))
 
     def request(self):
+        from roboray.firmware import app
         t = self.twin
         v = app.vehicle
         mode = -1
@@ -222,6 +227,7 @@ class Lockstep:
     # ------------------------------------------------------------- lives
     def life_ended(self):
         """Add the counts of the application that just ended."""
+        from roboray.firmware import app
         v = app.vehicle
         app.vehicle = None
         if v is None or v.sched is None:
@@ -269,22 +275,34 @@ def _board_time(config):
                              config.get("ps_per_insn"))
     if bt.source == "emu":
         boardtime.bracket_emulation(machine, bt)
+    global _bt, _run_loop
     from roboray.firmware.scheduler import Scheduler
-    run_loop = Scheduler.run
-
-    def run_instrumented(sched, cycles=-1):
-        v = app.vehicle
-        if bt.source == "emu":
-            boardtime.emuboard.exclude_begin()   # the twin's own set-up, not the board's
-        try:
-            bt.instrument(sched, v.modes if v is not None else None)
-        finally:
-            if bt.source == "emu":
-                boardtime.emuboard.exclude_end()
-        return run_loop(sched, cycles)
-
-    Scheduler.run = run_instrumented
+    _bt = bt
+    if _run_loop is None:
+        _run_loop = Scheduler.run
+    Scheduler.run = _run_instrumented
     return bt
+
+
+# The board time and the scheduler's own run() while a twin runs: module
+# globals and a plain function, not a closure, so the firmware's collector
+# sees what they hold (firmware/collector.py).
+_bt = None
+_run_loop = None
+
+
+def _run_instrumented(sched, cycles=-1):
+    from roboray.firmware import app
+    bt = _bt
+    v = app.vehicle
+    if bt.source == "emu":
+        boardtime.emuboard.exclude_begin()   # the twin's own set-up, not the board's
+    try:
+        bt.instrument(sched, v.modes if v is not None else None)
+    finally:
+        if bt.source == "emu":
+            boardtime.emuboard.exclude_end()
+    return _run_loop(sched, cycles)
 
 
 def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, board=None, board_time=None):
@@ -292,11 +310,17 @@ def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, bo
 
     ``board_time``: None (code is free: time moves only when the firmware
     sleeps) or ``{"source": "emu"|"model", "model": {...}, "cpu_mhz": 150,
-    "ps_per_insn": N}`` (``boardtime.py``)."""
+    "ps_per_insn": N}`` (``boardtime.py``).
+
+    The application is imported here and where it is used, not at the
+    module's top: the twin's objects then lead to the firmware's only
+    through what the firmware holds of them (its clock, its peripherals),
+    which the firmware's collector can order (``firmware/collector.py``)."""
+    from roboray.firmware import app
     bt = _board_time(board_time)
     ls = Lockstep(frame_us, step_us, divider, bt)
     ls.boundary()      # the world's inputs at time 0, before anything runs
-    vclock.set_hook(ls.hook)
+    vclock.set_hook(ls)
     if bt is not None:
         bt.start()
     try:

@@ -28,8 +28,8 @@ class _File:
 
     def write(self, data):
         owner = self._owner
-        if owner.flash is not None:
-            owner.flash("write", len(data))
+        if owner.board_time is not None:
+            owner.board_time.flash("write", len(data))
         if owner.step(self._counted):
             self._f.write(data[:len(data) // 2])
             self._f.close()
@@ -45,8 +45,8 @@ class _File:
         if owner.dead:
             self._f.close()  # the host file; the board is already off
             raise PowerCut("power is off")
-        if owner.flash is not None:
-            owner.flash("close")
+        if owner.board_time is not None:
+            owner.board_time.flash("close")
         if owner.step(self._counted):
             self._f.close()
             raise PowerCut("power cut closing the file")
@@ -61,9 +61,11 @@ class PowerCutFiles:
         self.cut_at = cut_at
         self.steps = 0
         self.dead = False
-        #: ``flash(kind, nbytes=0)``: charges each flash-changing step's
-        #: stall to the board's time (``boardtime.BoardTime.flash``), or None.
-        self.flash = None
+        #: ``boardtime.BoardTime`` whose ``flash(kind, nbytes=0)`` charges
+        #: each flash-changing step's stall to the board's time, or None
+        #: (the object, not its bound method: the firmware's collector
+        #: orders what it can see, ``firmware/collector.py``).
+        self.board_time = None
         #: Only steps on paths holding this count towards ``cut_at`` (the
         #: twin: the parameter file, whose save ``powercut:N`` cuts at its
         #: N-th step); None: every step. The others still charge their
@@ -91,8 +93,8 @@ class PowerCutFiles:
     def open(self, path, mode):
         if "w" in mode or "a" in mode:
             f = self._files.open(path, mode)  # truncated even if the cut comes now
-            if self.flash is not None:
-                self.flash("open")
+            if self.board_time is not None:
+                self.board_time.flash("open")
             counted = self._counts(path)
             if self.step(counted):
                 f.close()
@@ -102,15 +104,15 @@ class PowerCutFiles:
         return self._files.open(path, mode)
 
     def rename(self, old, new):
-        if self.flash is not None:
-            self.flash("rename")
+        if self.board_time is not None:
+            self.board_time.flash("rename")
         if self.step(self._counts(old)):
             raise PowerCut("power cut before renaming %s" % old)
         self._files.rename(old, new)
 
     def remove(self, path):
-        if self.flash is not None:
-            self.flash("remove")
+        if self.board_time is not None:
+            self.board_time.flash("remove")
         if self.step(self._counts(path)):
             raise PowerCut("power cut before removing %s" % path)
         self._files.remove(path)
@@ -120,8 +122,8 @@ class PowerCutFiles:
         return self._files.exists(path)
 
     def mkdir(self, path):
-        if self.flash is not None:
-            self.flash("open")   # a metadata commit, as creating a file
+        if self.board_time is not None:
+            self.board_time.flash("open")   # a metadata commit, as creating a file
         if self.step(self._counts(path)):
             raise PowerCut("power cut before making %s" % path)
         self._files.mkdir(path)
