@@ -36,21 +36,26 @@
    log       20 ms   the flight log: records to RAM, to flash only when the
                      vehicle is still or disarmed (phase 1;
                      ``firmware/flightlog/``)
-   gc        300 ms  ``gc.collect()``, a planned stall (phase 9: no control)
+   gc        300 ms  ``collector.collect()``, a planned stall (phase 9: no
+                     control), in a slot with nav only
    ========  ======  ======================================================
 
    Why the collection is a task: on a Pico 2 one ``gc.collect()`` walks
-   the whole live heap: 45-55 ms with the firmware's bytecode on it, ~35
-   ms from ROMFS (counted on the emulated RP2350; ``docs/design/
-   board-time.md``), so the loop cannot collect every slot as it did (it
-   overran every slot and the watchdog reset the board). The loop leaves
-   ~3.5 kB of garbage a slot (boxed floats, 16 bytes each), ~5 kB in
-   TARGET: 30 slots of it fit the heap with room to spare, so a collection
-   every 300 ms never lets the heap fill (an allocation that finds it full
-   would collect in the middle of a task). It runs in an odd slot, where
-   the controller does not, and is announced to the scheduler
-   (``expect_delay_ms``) as the planned stall it is: the slots it spans
-   are skipped and counted, not taken for a loop in trouble.
+   the whole live heap, tens of ms (counted on the emulated RP2350;
+   ``docs/design/board-time.md``), so the loop cannot collect every slot
+   as it did (it overran every slot and the watchdog reset the board).
+   The loop leaves ~3.5 kB of garbage a slot (boxed floats, 16 bytes
+   each), ~5 kB in TARGET: 30 slots of it fit the heap with room to spare,
+   so a collection every 300 ms never lets the heap fill (an allocation
+   that finds it full would collect in the middle of a task). It runs in
+   an odd slot, where the controller does not, with nav only (the
+   scheduler's planned-stall task: the others wait for their next turn),
+   and is announced as the stall it is: the slots it spans are skipped and
+   counted, not taken for a loop in trouble. ``firmware/collector.py``
+   orders the heap for the collector once before the loop, so its mark
+   stack does not overflow (a second scan of the whole heap); ``build()``
+   collects first, so the vehicle's objects take the lowest free blocks
+   (the sweep walks the heap up to the highest block in use).
 
 ``build()`` does 1-4 and returns the ``Vehicle``; ``main()`` keeps it in
 ``vehicle`` while it runs, so the REPL (after Ctrl-C) and the twin can
@@ -64,6 +69,7 @@ board stays at the REPL instead of resetting a second later.
 import gc
 
 from roboray.firmware import boards
+from roboray.firmware import collector
 from roboray.firmware.drivers import battery as battery_mod
 from roboray.firmware.drivers import servo as servo_mod
 from roboray.firmware.drivers.battery import Battery
@@ -111,9 +117,10 @@ LEAK_MS = 50
 BATTERY_MS = 100
 PARAMS_MS = 1000    # saves the parameters when they changed
 GC_MS = 300         # the collection (see the table above)
-#: The radio's unit of work at most on a Pico 2 (bench board: p99 1.6 ms,
-#: max 2.6 ms): less left in a slot and it waits for the next.
-LINK_BUDGET_US = 2600
+#: The radio's unit of work at most on a Pico 2 (bench board: p99 1.6-2.0
+#: ms, max 2.9 ms in target-landing): less left in a slot and it waits for
+#: the next.
+LINK_BUDGET_US = 3000
 #: The log's unit of work at most on a Pico 2 (bench board: p99 1.5 ms, max
 #: 2.4 ms; its flushes are planned stalls, announced): its budget (a
 #: budget under its maximum let a long call end a slot past 10 ms).
@@ -325,7 +332,11 @@ class Vehicle:
         # a budget of its longest call: a slot that nav, depth and the radio
         # filled passes it to the next
         s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_COST_US)
-        s.add("gc", self.collect, GC_MS, phase=GC_PHASE)
+        # the collection, announced as the stall it is, in a slot with nav
+        # only; collector.collect, not a method of the vehicle: the
+        # collector's order (firmware/collector.py) cannot see into a
+        # bound method
+        s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
         self.sched = s
         self.store.expect_delay = s.expect_delay_ms
         self.resume.record.expect_delay = s.expect_delay_ms
@@ -351,13 +362,11 @@ class Vehicle:
         self.flight.step()
         self.resume.update()
 
-    def collect(self):
-        """The loop's collection: a stall the scheduler is told of first."""
-        self.sched.expect_delay_ms(GC_STALL_MS)
-        gc.collect()
-
     def run(self, cycles=-1):
         """Start the watchdog and run the loop; wings safe when it ends."""
+        # the collector's marking order, before the watchdog runs: the walk
+        # takes a few hundred ms on a Pico 2 (firmware/collector.py)
+        collector.prepare()
         self.wdt = self.machine.WDT(timeout=WDT_TIMEOUT_MS)
         self.sched.wdt = self.wdt
         gc.collect()
@@ -377,6 +386,11 @@ def build(machine, clock, board=None, param_path=PARAM_PATH, fs=None):
     Returns the ``Vehicle``; when ``vehicle.problems`` is not empty the loop
     was not built and the vehicle must not run.
     """
+    # what the imports left behind goes first: the vehicle's objects, which
+    # live as long as it does, then take the lowest free blocks, and the
+    # collector's sweep, which walks the heap up to the highest block in
+    # use, stays short
+    gc.collect()
     profile = boards.load(board)
     print("board: %s (%s)" % (profile.NAME, profile.DESCRIPTION))
     params = ParamTable(PARAMS)

@@ -99,6 +99,7 @@ def test_build_gives_the_vehicle_to_extend_with_one_line_a_task(mp):
     mp.exec("wire()\ndev_depth.set(150000.0, 10.0)\nv = app.build(machine, time, param_path=%r)\n"
             "steps = []\nv.sched.add('estimator', lambda: steps.append(v.depth.pressure_pa), app.MAIN_MS)\n"
             "v.sched.run(50)" % PARAMS)
+    # every slot: the collection's too, which runs with the every-slot tasks only
     assert mp.eval("len(steps)") == 50
     assert abs(mp.eval("steps[-1]") - 150000) <= 10
     assert mp.eval("[v.imu.health.healthy(), v.mag.health.healthy(), v.depth.health.healthy(), "

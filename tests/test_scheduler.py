@@ -183,7 +183,7 @@ def test_a_planned_stall_resumes_on_the_grid_with_a_slot_of_the_every_slot_tasks
 
 
 def test_a_task_on_a_budget_waits_for_the_next_slot_when_it_would_not_fit(mp):
-    # a 10 ms slot ends by 9.5 ms: after 7 ms of work a task that may take
+    # a 10 ms slot ends by 9 ms: after 7 ms of work a task that may take
     # 3 ms waits for the next slot, and runs there whatever it leaves
     mp.exec("s = Scheduler(vclock, 10)\n"
             "s.add('heavy', busy(7000), 10)\ns.add('radio', stamp, 10, budget_us=3000)\n"
@@ -194,3 +194,69 @@ def test_a_task_on_a_budget_waits_for_the_next_slot_when_it_would_not_fit(mp):
     mp.exec("s2 = Scheduler(vclock, 10)\n"
             "s2.add('light', busy(2000), 10)\ns2.add('radio', nothing, 10, budget_us=3000)\ns2.run(5)")
     assert mp.eval("[s2.deferred, s2.runs[1]]") == [0, 5]
+
+
+def test_a_task_that_is_a_planned_stall_runs_with_the_every_slot_tasks_only(mp):
+    # the 'gc' task (every 5 slots, phase 2) stalls 25 ms: announced before
+    # each call, so a stall and not an overrun; its slot runs only it and
+    # the every-slot task (the 20 ms one due then waits), and the slot after
+    # it runs only the every-slot task, as after any planned stall
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "events = []\n"
+            "def ev(name):\n"
+            "    def f():\n"
+            "        events.append((s.slot, name))\n"
+            "    return f\n"
+            "def stall():\n"
+            "    events.append((s.slot, 'gc'))\n"
+            "    vclock.advance(25000)\n"
+            "s.add('nav', ev('nav'), 10)\ns.add('depth', ev('depth'), 20)\n"
+            "s.add('gc', stall, 50, phase=2, stall_ms=40)\n"
+            "s.run(6)")
+    assert [tuple(e) for e in mp.eval("events")] == [(0, "nav"), (0, "depth"), (1, "nav"), (2, "nav"), (2, "gc"),
+                                                     (5, "nav"), (6, "nav"), (6, "depth"), (7, "nav"), (7, "gc")]
+    # slot 2 passed over depth; each stall skipped 2 slots
+    assert mp.eval("[s.overruns, s.stalls, s.skipped, s.deferred]") == [0, 2, 4, 1]
+
+
+def test_after_a_planned_stall_a_task_on_a_budget_still_waits_when_it_would_not_fit(mp):
+    # even slots are heavy (7 ms), the radio takes 3 ms on a 3 ms budget.
+    # Slot 1 stalls 15 ms (the held radio runs after it, at 25 ms); slot 2
+    # is skipped, slot 3 runs light (the radio passed over), and in slot 4,
+    # heavy, the radio waits again rather than end the slot late: it runs
+    # at 50 ms, in slot 5
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "def work():\n"
+            "    if s.slot == 1:\n"
+            "        s.expect_delay_ms(30)\n"
+            "        vclock.advance(15000)\n"
+            "    elif s.slot % 2 == 0:\n"
+            "        vclock.advance(7000)\n"
+            "def radio():\n"
+            "    stamp()\n"
+            "    vclock.advance(3000)\n"
+            "s.add('work', work, 10)\ns.add('radio', radio, 10, budget_us=3000)\n"
+            "s.run(5)")
+    assert mp.eval("stamps()") == [25, 50]
+    assert mp.eval("[s.overruns, s.stalls, s.skipped]") == [0, 1, 1]
+
+
+def test_a_collection_whose_slot_another_stall_skipped_runs_after_it(mp):
+    # the collection is due at slot 4; slot 2 stalls 25 ms (a flash save),
+    # so slots 3 and 4 are skipped and slot 5 runs light: the collection
+    # runs at the end of slot 6, not 300 ms later (the heap would fill
+    # meanwhile and collect inside a task, unannounced)
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "events = []\n"
+            "def work():\n"
+            "    events.append((s.slot, 'work'))\n"
+            "    if s.slot == 2:\n"
+            "        s.expect_delay_ms(30)\n"
+            "        vclock.advance(25000)\n"
+            "def collect():\n"
+            "    events.append((s.slot, 'gc'))\n"
+            "s.add('work', work, 10)\ns.add('gc', collect, 300, phase=4, stall_ms=40)\n"
+            "s.run(6)")
+    assert [tuple(e) for e in mp.eval("events")] == [(0, "work"), (1, "work"), (2, "work"), (5, "work"),
+                                                     (6, "work"), (6, "gc"), (7, "work")]
+    assert mp.eval("[s.runs[1], s.stalls, s.overruns]") == [1, 1, 0]

@@ -9,9 +9,16 @@ Pico 2 timings (``tools/rp2350_emu/calibration.py``):
   target-landing on the emulated board (compute, I2C bus time and flash
   stalls charged to the virtual clock as the chip would spend them);
 - ``slot_p50_ms``, ``slot_p99_ms``, ``slot_max_ms``: a slot's work
-  including its collection; ``gc_ms``: one ``gc.collect()`` at the
-  firmware's live heap, the firmware built on the emulated board without
-  the world; ``heap_live_bytes``, ``heap_size_bytes``;
+  including its collection and flash stalls; ``slot_p99_ms_no_flash``,
+  ``slot_max_ms_no_flash``: with the collections, without the slots a
+  flash write stalled; ``..._no_stall``: without either;
+- ``gc_ms``: one ``gc.collect()`` at the firmware's live heap, the
+  firmware built on the emulated board without the world, marked in the
+  collector's order (``firmware/collector.py``; ``gc_order_objects``
+  ordered in ``gc_order_prepare_ms`` at start-up); ``gc_ms_unordered``:
+  the same heap before it is ordered (the mark stack overflows and the
+  heap is scanned twice); ``gc_insns``, ``gc_insns_unordered``: their
+  instructions; ``heap_live_bytes``, ``heap_size_bytes``;
 - ``float_impl`` and ``word_bits`` as the board reports them;
 - ``calibration``: the published figures, their sources, the cost of an
   instruction and its uncertainty.
@@ -53,14 +60,23 @@ emulation_gc = emuboard.insns() - i0
 %(setup)s
 %(build)s
 v.sched.run(300)
+from roboray.firmware import collector
 out = {"emulation_bytes": emulation, "base_bytes": base, "emulation_gc_insns": emulation_gc}
-samples = []
-for k in range(5):
-    v.sched.run(20)
-    i0 = emuboard.insns()
-    gc.collect()
-    samples.append(emuboard.insns() - i0)
-out["gc_insns"] = samples
+def collections(n):
+    samples = []
+    for k in range(n):
+        v.sched.run(20)
+        i0 = emuboard.insns()
+        collector.collect()
+        samples.append(emuboard.insns() - i0)
+    return samples
+out["gc_insns_unordered"] = collections(3)
+app.vehicle = v
+i0 = emuboard.insns()
+out["chain"] = collector.prepare()
+out["prepare_insns"] = emuboard.insns() - i0
+gc.collect()
+out["gc_insns"] = collections(5)
 out["live_bytes"] = gc.mem_alloc()
 out["free_bytes"] = gc.mem_free()
 out["float_single"] = (1.0 + 1e-8 == 1.0)
@@ -150,6 +166,27 @@ def _twin_run(scenario: str, cpu_mhz: float, romfs: bool, seed: int = 0) -> tupl
     return report, twin
 
 
+def slots_without_flash(twin) -> dict:
+    """Slot p99 and max with the collections, without the slots a flash
+    write stalled (a parameter or dive-state save): what the collector
+    leaves of the loop's time."""
+    kind, _, us = twin.times.records()
+    keep = []
+    flash = False
+    for k, u in zip(kind.tolist(), us.tolist()):
+        if k == 17:      # a slot's records end with its SLOT record
+            if not flash:
+                keep.append(u)
+            flash = False
+        elif k == 18:
+            flash = True
+    if not keep:
+        return {}
+    a = np.asarray(keep)
+    return {"slot_p99_ms_no_flash": round(float(np.percentile(a, 99)) / 1000.0, 3),
+            "slot_max_ms_no_flash": round(float(a.max()) / 1000.0, 3)}
+
+
 def model_from(runs: list) -> dict:
     """Per task and mode, the mean cost a call (us at 150 MHz) from twins run
     on the emulated board; modes a run did not visit take the nearest one's
@@ -235,10 +272,12 @@ def do_bench_board(args: argparse.Namespace) -> None:
     report, twin = _twin_run("target-landing", args.cpu_mhz, args.romfs)
     runs = [(report, twin)]
     bt = report["board_time"]
+    bt_extra = slots_without_flash(twin)
     sys.stderr.write("bench board: the firmware's heap and one collection...\n")
     probe = _probe(args.romfs)
     ps = cal["ps_per_insn"] * timing.REF_MHZ / args.cpu_mhz
     gc_us = [n * ps / 1e6 for n in probe["gc_insns"]]
+    gc_us_unordered = [n * ps / 1e6 for n in probe["gc_insns_unordered"]]
     result = {
         "board": "emulated RP2350 (%s, QEMU mps3-an547, Cortex-M33 code, -icount)%s" % (
             rp2350_emu.version(), ", board code in ROMFS" if args.romfs else ""),
@@ -259,7 +298,14 @@ def do_bench_board(args: argparse.Namespace) -> None:
         "resets": report["resets"],
         "flash_stalls": bt.get("flash_stalls"),
         "flash_stall_ms": bt.get("flash_stall_ms"),
+        "slot_p99_ms_no_flash": bt_extra.get("slot_p99_ms_no_flash"),
+        "slot_max_ms_no_flash": bt_extra.get("slot_max_ms_no_flash"),
         "gc_ms": round(float(np.median(gc_us)) / 1000.0, 3),
+        "gc_ms_unordered": round(float(np.median(gc_us_unordered)) / 1000.0, 3),
+        "gc_insns": int(np.median(probe["gc_insns"])),
+        "gc_insns_unordered": int(np.median(probe["gc_insns_unordered"])),
+        "gc_order_objects": probe["chain"],
+        "gc_order_prepare_ms": round(probe["prepare_insns"] * ps / 1e9, 1),
         "heap_live_bytes": probe["live_bytes"] - probe["emulation_bytes"],
         "heap_live_emulation_bytes": probe["emulation_bytes"],
         "heap_size_bytes": rp2350_emu.PICO2_HEAP,
@@ -301,9 +347,12 @@ def do_bench_board(args: argparse.Namespace) -> None:
                          r["slot_p50_ms"], r["slot_p99_ms"], r["slot_max_ms"], r["slot_p99_ms_no_stall"],
                          r["slot_max_ms_no_stall"], r["load_pct"], r["overruns"], r["planned_stalls"],
                          r["skipped_slots"], r["resets"]))
-        lines.append("one gc.collect() at the firmware's live heap: %.3f ms (live %d B + %d B emulated peripherals, "
-                     "heap %d B)" % (r["gc_ms"], r["heap_live_bytes"], r["heap_live_emulation_bytes"],
-                                     r["heap_size_bytes"]))
+        lines.append("with the collections, without flash stalls: slot p99 %s ms, max %s ms" % (
+            r["slot_p99_ms_no_flash"], r["slot_max_ms_no_flash"]))
+        lines.append("one gc.collect() at the firmware's live heap: %.3f ms in the collector's order (%d objects, "
+                     "ordered in %.0f ms at start-up), %.3f ms without it (live %d B + %d B emulated peripherals, "
+                     "heap %d B)" % (r["gc_ms"], r["gc_order_objects"], r["gc_order_prepare_ms"], r["gc_ms_unordered"],
+                                     r["heap_live_bytes"], r["heap_live_emulation_bytes"], r["heap_size_bytes"]))
         c = r["calibration"]
         lines.append("calibration: %.3f ns an instruction at 150 MHz (CPI %.2f), +-%.0f%% (%s)" % (
             c["ps_per_insn"] / 1000.0, c["cpi"], 100 * c["relative_uncertainty"],
