@@ -22,11 +22,6 @@ def fly(**kw):
     return run(Options(**o))
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "issue 15 (open): on the emulated board the arming's parameter save (94 ms), the dive-state save "
-    "(54 ms) and a collection (55 ms) fall within 0.3 s of the release; with the flight log's 48 kB "
-    "ring the IMU driver then reads unhealthy and the IMU failsafe acts at 10.1 s (with an 80 kB ring "
-    "it did not, but target-landing overran): the collector's cost and timing, not the log's own"))
 def test_the_firmware_boots_and_its_loop_takes_board_time():
     r = fly()
     assert r["interpreter"].startswith("rp2350-emu 1.29")

@@ -189,28 +189,32 @@ def slots_without_flash(twin) -> dict:
 
 def model_from(runs: list) -> dict:
     """Per task and mode, the mean cost a call (us at 150 MHz) from twins run
-    on the emulated board; modes a run did not visit take the nearest one's
-    (ATTITUDE: VELOCITY's cascade; FAILSAFE: PASSIVE's fixed wings)."""
+    on the emulated board, calls that wrote to flash left out; modes a run
+    did not visit take the nearest one's (ATTITUDE: VELOCITY's cascade;
+    FAILSAFE: PASSIVE's fixed wings)."""
     from roboray.shared.modes import NAMES
 
     sums: dict = {}
     for report, twin in runs:
         names = twin.board_report.get("task_names") or []
         kind, mode, us = twin.times.records()
-        # a flash stall is charged apart (the model's twin charges it from
-        # the file operations): take it out of the task it fell in, the
-        # next task record after it
-        us = us.astype(np.int64)
-        stall = 0
+        # A flash stall is charged apart (the model's twin charges it from
+        # the file operations), and the call it fell in (a parameter or
+        # dive-state save, the next task record after it) is left out: a
+        # save's own work averaged into a mode's few calls made every call
+        # of that mode cost it (PASSIVE's parameter task 45 ms a call, and a
+        # model twin resting on the bottom overran every second).
+        flashed = np.zeros(len(kind), dtype=bool)
+        stall = False
         for j in range(len(kind)):
             if kind[j] == 18:
-                stall += int(us[j])
+                stall = True
             elif stall and kind[j] < 16:
-                us[j] = max(int(us[j]) - stall, 0)
-                stall = 0
+                flashed[j] = True
+                stall = False
         for i, name in enumerate(names):
             for m in range(len(NAMES)):
-                sel = (kind == i) & (mode == m)
+                sel = (kind == i) & (mode == m) & ~flashed
                 if sel.any():
                     s = sums.setdefault(name, {}).setdefault(m, [0.0, 0])
                     s[0] += float(us[sel].sum())
