@@ -102,11 +102,11 @@ def test_a_dive_log_is_downloaded_over_the_radio_resumed_after_a_cut_and_erased(
     assert {"ATT", "IMU", "MAG", "BARO", "RCOU", "WING", "EST", "PM", "PARM", "MODE", "EV", "MSG"} <= set(kinds)
     # ATT at 25 Hz from arming to the disarming, less the calls a planned
     # stall takes (a collection every 300 ms, ~50 ms on the board): no gap
-    # longer than the arming's parameter save (~100 ms) and two calls, four in five calls there
+    # longer than the arming's parameter save (~100 ms) and two calls, three in five calls there (a slot that ends late passes the log to the next)
     assert 9.0 < att[0] / 1e6 < 10.0 and 15.5 < att[-1] / 1e6 < 16.5
     gaps = [b - a for a, b in zip(att, att[1:])]
     assert min(gaps) >= 30_000 and max(gaps) <= 200_000
-    assert len(att) >= 0.75 * (att[-1] - att[0]) / 40_000
+    assert len(att) >= 0.6 * (att[-1] - att[0]) / 40_000
 
 
 def test_a_watchdog_reset_mid_dive_leaves_a_readable_log_and_a_new_one_after_it(tmp_path):

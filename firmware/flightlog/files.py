@@ -29,6 +29,7 @@ ROOT = "/logs"
 LASTLOG = "LASTLOG.TXT"
 MAX_NUMBER = 500
 MIN_FREE_FRACTION = 0.25
+MIN_FREE_MAX = 1048576      # bytes: a quarter of a Pico 2's ~3 MB is 768 kB
 
 
 def name_of(number):
@@ -125,6 +126,8 @@ class LogFiles:
         with empty logs."""
         self._ensure_root()
         want = self.total_bytes() * MIN_FREE_FRACTION
+        if want > MIN_FREE_MAX:
+            want = MIN_FREE_MAX     # (a file system far larger than a Pico's: the twin on a host)
         if want < 2 * buf_bytes:
             want = 2 * buf_bytes
         self.make_room(want)
