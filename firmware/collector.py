@@ -58,12 +58,6 @@ import gc
 import sys
 from array import array
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-    def const(x):
-        return x
-
 _first = None
 
 
