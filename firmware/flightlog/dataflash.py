@@ -146,7 +146,6 @@ class Writer:
         self.tail = 0       # the oldest byte not yet taken
         self.wrap = -1      # where the data before a wrap ends; -1: no wrap
         self.dropped = 0
-        self.written = 0    # bytes reserved since the start
         self.t0 = 0
         self.t1 = 0
         self.t2 = 0
@@ -165,16 +164,13 @@ class Writer:
         if self.wrap < 0:
             if h + n <= self.size:
                 self.head = h + n
-                self.written += n
                 return h
             if n < self.tail:      # the front has room: wrap (head never meets tail from behind)
                 self.wrap = h
                 self.head = n
-                self.written += n
                 return 0
         elif h + n < self.tail:
             self.head = h + n
-            self.written += n
             return h
         self.dropped += 1
         return -1

@@ -204,7 +204,6 @@ class FlightLog:
         self._overruns = 0
         self._slots = 0
         self.chunks = 0               # chunks written to flash
-        self.logs_started = 0
 
     # ------------------------------------------------------------ time
     def _now(self):
@@ -230,7 +229,6 @@ class FlightLog:
         self._prep = prepare
         self._prep_version = self.params.version
         self.logging = not prepare
-        self.logs_started += 1
 
     def _arm(self):
         """Armed: the prepared log goes on (parameters changed since it was
