@@ -1,5 +1,5 @@
 """``roboray-sim stability``, ``trim``, ``modes``, ``envelope``,
-``stability-map`` and ``controllability``."""
+``stability-map``, ``controllability`` and ``glide-check``."""
 
 from __future__ import annotations
 
@@ -217,6 +217,56 @@ def do_controllability(args: argparse.Namespace) -> None:
     emit(args, result, text)
 
 
+# ------------------------------------------------------------ glide check
+def do_glide_check(args: argparse.Namespace) -> None:
+    from roboray.sim.analysis import glide_check
+
+    if not 0.0 < args.fold < 90.0:
+        raise UsageError("--fold %g: the stroke's mean fold must be between 0 and 90 deg (exclusive)" % args.fold)
+    params = vehicle_params(args)
+    try:
+        result = glide_check.compare(params, args.wings, settle_s=args.settle)
+        result["stroke"] = glide_check.stroke_reaction(params, fold_deg=args.fold)
+    except ValueError as exc:
+        raise CliError(str(exc))
+    result["vehicle"] = args.vehicle or "reference"
+    emit(args, result, _glide_check_text)
+
+
+def _glide_check_text(r: dict) -> str:
+    out = ["wings %s deg, vehicle %s: straight glide" % (",".join("%g" % w for w in r["wings_deg"]), r["vehicle"]),
+           "%-34s %11s %11s %7s %8s %9s" % ("", "descent", "horizontal", "glide", "tilt", "towards")]
+    for key, name in (("main_model", "main model (Kirchhoff, trim)"),
+                      ("plate_model_munk", "plate drag + Munk moment (k = 1)"),
+                      ("plate_model_no_munk", "plate drag alone (k = 0)")):
+        g = r[key]
+        out.append("%-34s %7.4f m/s %7.4f m/s %7.3f %4.1f deg %5.0f deg" % (
+            name, g["descent_speed"], g["horizontal_speed"], g["glide_ratio"], g["tilt_deg"],
+            g["glide_direction_deg"]))
+    out.append("plate model with Munk vs main model: largest difference in V and Gamma %.1e"
+               % r["plate_vs_main_max_difference"])
+    out.append("Munk scale k 1 -> 0: glide ratio %s" % " ".join("%.3f" % g["glide_ratio"] for g in r["munk_scan"]))
+    for key, where in (("moments_at_main_glide_nm", "main glide"), ("moments_at_plate_glide_nm", "plate-only glide")):
+        m = r[key]
+        out.append("moments about the CB at the %s: drag %.4f, weight %.4f, Munk %.4f N m" % (
+            where, m["drag_moment"], m["weight_moment"], m["munk_moment"]))
+    c = r["main_model_at_plate_glide"]
+    out.append("main model at the plate-only glide: net force %.1e N, moment %s N m = the Munk moment there "
+               "(differs by %.1e N m)" % (c["force_n"], ", ".join("%.4f" % v for v in c["moment_nm"]),
+                                          c["difference_nm"]))
+    s = r["stroke"]
+    d = s["displacement_m"]
+    pr = s["per_radian_m"]
+    out.append("stroke: wings 1 and 3 from %g deg by +-%g deg (gravity and drag off): along x_c (towards the folded "
+               "wing 1) the plate's centre moves %+.2f mm, the CG %+.2f mm, the CB %+.2f mm; the body turns %+.1f "
+               "deg about y_c (%s)" % (
+                   s["fold_deg"], s["stroke_deg"], d["plate_centre"][0] * 1e3, d["cg"][0] * 1e3, d["cb"][0] * 1e3,
+                   s["pitch_deg"], "wing 1's side down" if s["pitch_deg"] < 0 else "wing 1's side up"))
+    out.append("  per radian of a small stroke: plate's centre %+.2f mm, CG %+.2f mm, CB %+.2f mm, %+.1f deg" % (
+        pr["plate_centre"][0] * 1e3, pr["cg"][0] * 1e3, pr["cb"][0] * 1e3, s["pitch_deg_per_radian"]))
+    return "\n".join(out)
+
+
 def register(sub, bench) -> None:
     p = command(sub, "stability", do_stability,
                 "stability of the thesis's equilibria (reduced model, chapter 3): a table or any equilibrium")
@@ -247,6 +297,17 @@ def register(sub, bench) -> None:
     p.add_argument("--settle", type=positive, default=40.0, help="seconds of free fall to settle (default 40)")
     p.add_argument("--no-refine", action="store_true", help="skip the local optimiser")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="glide ratio against descent speed of every trim")
+    add_vehicle_options(p)
+    add_json(p)
+
+    p = command(sub, "glide-check", do_glide_check,
+                "the glide by a second model (plate drag, moment balance, Munk moment on or off) and a stroke's reaction")
+    p.add_argument("--wings", type=wings_deg, default=[0.0, 0.0, 90.0, 90.0], metavar="S1,S2,S3,S4",
+                   help="wing deflections with a mirror plane, degrees (default 0,0,90,90)")
+    p.add_argument("--settle", type=positive, default=40.0,
+                   help="seconds of free fall to settle the main model's glide (default 40)")
+    p.add_argument("--fold", type=number, default=45.0, metavar="DEG",
+                   help="mean fold of the stroke, 0..90 deg; wings 1 and 3 move the whole travel left (default 45)")
     add_vehicle_options(p)
     add_json(p)
 
