@@ -56,6 +56,11 @@ sim/vehicles/buildable.py`` and ``python -m roboray.tools.gen_plant
 lands 0.015 m off. They differ where the vehicles do: its symmetric fall is
 slower (0.29 m/s at 30 deg mean fold against 0.36) and its reach a little
 shorter (glide ratio 0.47 with two wings up against the reference's 0.49).
+Those are the main model's glides, which carry the added-mass (Munk) moment
+of an oblique glide; a plate-drag model without it gives 0.45 here (0.59
+for the reference) and tilts this vehicle 40 deg where the main model tilts
+it 3.3 deg, so a first dive's tilt says which holds (``roboray-sim
+glide-check --vehicle sim/vehicles/buildable.py``, docs/design/glide-check.md).
 Targets at (0, 3) and (-2.5, -2.5) m from 10 m land within 0.02 m with
 either pair of tables. No parameter needs changing.
 """
@@ -73,7 +78,7 @@ RHO_STEEL = 7850.0      # kg/m^3, structural steel S235 (EN 10025)
 # ----------------------------------------------------------------- geometry
 THICKNESS = 0.003       # m, chosen: 3 mm sheet for plate and wings (stock size of both)
 PLATE_SIDE = 0.140      # m, chosen: the dome (100 mm) plus a 13 mm servo and its wing hinge on each side
-# m, chosen: hinge to tip, 0.50 m tip to tip, for reach: two wings up glide at 0.47 (150 mm wings: 0.43)
+# m, chosen: hinge to tip, 0.50 m tip to tip, for reach: two wings up glide at 0.47 (150 mm wings: 0.43; main model)
 WING_HEIGHT = 0.180
 DOME_OD = 0.100         # m, part: 100 mm clear acrylic hemisphere (ROV/CCTV viewport dome, philipmcgaw.com)
 DOME_WALL = 0.003       # m, part: "about 3 mm thick" (same source)
