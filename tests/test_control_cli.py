@@ -74,15 +74,16 @@ def test_fly_takes_negative_values_in_every_option(capsys):
 
 
 def test_montecarlo_reports_percentiles(capsys, tmp_path):
-    runs = tmp_path / "runs.json"
+    runs = tmp_path / "runs.csv"
     out = run(capsys, "montecarlo", "--runs", "2", "--workers", "1", "--depth", "3", "--distance", "0.5",
-              "--truth", "--runs-out", str(runs), "--json")
+              "--truth", "--results", str(runs), "--json")
     for key in ("landing_error_p50_m", "landing_error_p95_m", "landing_error_worst_m", "runs", "landed"):
         assert key in out, key
     assert out["runs"] == out["landed"] == 2
     assert out["landing_error_p50_m"] <= out["landing_error_p95_m"] <= out["landing_error_worst_m"] < 0.5
-    each = json.loads(runs.read_text())
-    assert len(each) == 2 and each[0]["spec"]["vehicle"]   # the model errors of each run
+    lines = runs.read_text().splitlines()
+    assert len(lines) == 4 and lines[1].startswith("run,seed,") and "added_mass_error" in lines[1]   # the model errors
+    assert json.loads((tmp_path / "runs.summary.json").read_text())["runs"] == 2
 
 
 def test_thesis_control_reports_the_runs_and_why(capsys):

@@ -11,6 +11,7 @@ import pytest
 from roboray.shared import control as control_pkg
 from roboray.shared.control import allocation, backstepping, cascade, gains
 from roboray.shared.estimator import Estimator
+from roboray.sim import controller_costs as costs
 from roboray.sim import flight as F
 from roboray.sim.commands.control import STEP_HEAP_LIMIT
 from roboray.tools import boardcheck
@@ -57,10 +58,10 @@ def test_backstepping_steps_agree_on_both_interpreters(micropython):
     assert_close_f32(on_cpython, _replay_on(micropython, spec, log))
 
 
-@pytest.mark.parametrize("mode", sorted(F.BENCH_FLIGHTS))
+@pytest.mark.parametrize("mode", sorted(costs.BENCH_FLIGHTS))
 def test_a_cascade_step_allocates_within_the_bench_limit(micropython, mode):
-    spec, log = F.bench_log(mode, steps=60, warm=40)
-    cost = F.measure_on(micropython, spec, log, warm=40)
+    spec, log = costs.bench_log(mode, steps=60, warm=40)
+    cost = costs.measure_on(micropython, spec, log, warm=40)
     each = cost["heap_bytes_each"]
     assert len(each) == 60
     # boxed floats only (16 bytes each), no container, within the limit

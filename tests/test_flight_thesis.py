@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import pytest
 
-from roboray.sim import flight as F
+from roboray.sim.analysis.authority import authority as compute_authority
+from roboray.sim.thesis_runs import thesis_run
 
 SECONDS = 30.0
 
 
 @pytest.fixture(scope="module")
 def authority():
-    return F.authority()
+    return compute_authority()
 
 
 def test_its_inputs_reach_the_body_only_through_a_millimetre_scale_reaction(authority):
@@ -30,8 +31,8 @@ def test_its_inputs_reach_the_body_only_through_a_millimetre_scale_reaction(auth
 
 def test_spinning_run_barely_moves_the_vehicle():
     """Sec. 5.2.1: spin 0.5 rad/s, v3 = 0.3 m/s, wings at 45 deg, K = I."""
-    free = F.thesis_run(0.5, control=False, duration=SECONDS)
-    run = F.thesis_run(0.5, duration=SECONDS)
+    free = thesis_run(0.5, control=False, duration=SECONDS)
+    run = thesis_run(0.5, duration=SECONDS)
     moved = run["position"][-1, 1] - free["position"][-1, 1]
     asked = 0.3 * SECONDS
     assert abs(moved) < 0.01 * asked
@@ -42,7 +43,7 @@ def test_spinning_run_barely_moves_the_vehicle():
 
 def test_reweighted_run_moves_the_wrong_way():
     """Sec. 5.2.2: no spin, K weighted towards the y_c velocity."""
-    free = F.thesis_run(0.0, control=False, duration=SECONDS)
-    run = F.thesis_run(0.0, kv2=10.0, duration=SECONDS)
+    free = thesis_run(0.0, control=False, duration=SECONDS)
+    run = thesis_run(0.0, kv2=10.0, duration=SECONDS)
     moved = run["position"][-1, 1] - free["position"][-1, 1]
     assert moved < -0.05   # asked: +9 m

@@ -142,10 +142,11 @@ def test_estimator_errors_start_once_valid_and_yaw_does_not_wrap(estimator_run):
 def test_montecarlo_legend_entries_are_distinct():
     from roboray.sim.commands.control import landings_figure
 
-    # the --runs-out records' fields the figure reads
-    results = [{"target": [2.0 * math.cos(a), 2.0 * math.sin(a)],
-                "landing_position": [2.0 * math.cos(a) + 0.02 * math.sin(3 * a), 2.0 * math.sin(a) + 0.01]}
-               for a in np.linspace(0.0, 6.0, 8)] + [{"target": [0.0, 2.0], "landing_position": None}]
+    # the fields of sim/montecarlo.py's rows the figure reads
+    results = [{"target_north_m": 2.0 * math.cos(a), "target_east_m": 2.0 * math.sin(a),
+                "landing_north_m": 2.0 * math.cos(a) + 0.02 * math.sin(3 * a), "landing_east_m": 2.0 * math.sin(a) + 0.01}
+               for a in np.linspace(0.0, 6.0, 8)] + [{"target_north_m": 0.0, "target_east_m": 2.0,
+                                                      "landing_north_m": None, "landing_east_m": None}]
     summary = {"runs": 9, "landing_error_p50_m": 0.015, "landing_error_p95_m": 0.03, "landing_error_worst_m": 0.03}
     fig = landings_figure(results, summary)
     try:
@@ -167,6 +168,7 @@ def test_montecarlo_legend_entries_are_distinct():
 def test_fly_and_thesis_figures_name_the_wings():
     from roboray.sim import flight as F
     from roboray.sim.commands.control import flight_figure, thesis_figure
+    from roboray.sim.thesis_runs import thesis_run
     from roboray.sim.plots import WINGS
 
     flight = F.fly(F.FlightSpec(mode="velocity", velocity=(0.1, 0.0, 0.0), truth=True, max_flight_s=5.0))
@@ -177,9 +179,9 @@ def test_fly_and_thesis_figures_name_the_wings():
         check_style(fig)
     finally:
         plt.close(fig)
-    runs = [F.thesis_run(0.5, control=False, duration=2.0), F.thesis_run(0.5, duration=2.0),
-            F.thesis_run(0.0, control=False, duration=2.0)]
-    fig = thesis_figure(*runs, {1.0: F.thesis_run(0.0, kv2=1.0, duration=2.0)})
+    runs = [thesis_run(0.5, control=False, duration=2.0), thesis_run(0.5, duration=2.0),
+            thesis_run(0.0, control=False, duration=2.0)]
+    fig = thesis_figure(*runs, {1.0: thesis_run(0.0, kv2=1.0, duration=2.0)})
     try:
         labels = sum((legend_labels(ax) for ax in fig.axes if ax.get_legend()), [])
         assert set(WINGS) <= set(labels) and "wing 2, K_v2 = 1" in labels

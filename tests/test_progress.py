@@ -122,14 +122,14 @@ def test_counted_runs_one_by_one():
 
 
 def test_montecarlo_counts_each_flight_as_its_worker_finishes(tmp_path):
-    runs = tmp_path / "runs.json"
-    status, out, terminal = on_terminal(["montecarlo", "--runs", "2", "--workers", "2", "--runs-out", str(runs)])
+    runs = tmp_path / "runs.csv"
+    status, out, terminal = on_terminal(["montecarlo", "--runs", "2", "--workers", "2", "--results", str(runs)])
     assert status == 0, terminal
     counts = [s.split("|")[0] for s in bar_states(terminal, "montecarlo")]
     assert counts[0] == "montecarlo: 0/2 flights" and "montecarlo: 1/2 flights" in counts, counts
     assert counts[-1] == "montecarlo: 2/2 flights", counts
     assert "2 target landings" in out
-    assert len(json.loads(runs.read_text())) == 2
+    assert len(runs.read_text().splitlines()) == 4   # the campaign's line, the column names, two runs
 
 
 @pytest.mark.parametrize("argv", [

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import time
 
 import numpy as np
 
 from roboray.sim import progress
+from roboray.sim.campaign.options import add_engine_options
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, floats, number, output_file, positive
 
 #: Heap bytes a cascade step may allocate on MicroPython (issue 7).
@@ -35,6 +37,13 @@ def _count(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError("%r must be at least 1" % text)
     return value
+
+
+def _results_file(text: str) -> str:
+    path = output_file(text)
+    if os.path.splitext(path)[1].lower() not in (".csv", ".parquet"):
+        raise argparse.ArgumentTypeError("%s: a results file ends in .csv or .parquet" % text)
+    return path
 
 
 # ------------------------------------------------------------------ fly
@@ -163,31 +172,45 @@ def flight_figure(flight, title: str | None = None):
 
 # ------------------------------------------------------------ montecarlo
 def do_montecarlo(args: argparse.Namespace) -> None:
-    from roboray.sim import flight as F
+    import json
 
-    check_target(args.distance, 0.0, args.depth, F.FlightSpec.start_depth)   # every bearing is as far
-    workers = args.workers if args.workers is not None else min(args.runs, os.cpu_count() or 1)
-    specs = F.plan(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
-                   controller=args.controller, truth=args.truth)
-    start = time.perf_counter()
-    with progress.bar(args, len(specs), "montecarlo", unit="flights") as bar:
-        results = F.run_all(specs, workers=workers, done=bar.update)
-    result = F.summary(results)
-    result.update(workers=workers, wall_time_s=time.perf_counter() - start, depth_m=args.depth,
-                  distance_m=args.distance, controller=args.controller, model_error=F.MODEL_ERROR,
-                  estimator="truth" if args.truth else "board estimator")
+    from roboray.sim import campaign as C
+    from roboray.sim import montecarlo as MC
+    from roboray.sim.flight import FlightSpec
+    from roboray.tools.jsonround import rounded
+
+    check_target(args.distance, 0.0, args.depth, FlightSpec.start_depth)   # every bearing is as far
+    engine = C.engine_from_args(args)
+    campaign = MC.campaign(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
+                           controller=args.controller, truth=args.truth)
+    notice = C.stderr_notice()
+    with contextlib.ExitStack() as stack, C.cli_errors():
+        bar = [progress.QUIET]
+
+        def started(total: int, present: int) -> None:
+            if present:
+                notice("%s: %d of %d runs already there, %d to run" % (args.results, present, total, total - present))
+            if present < total:   # the bar counts what is left to run: its ETA is this run's
+                bar[0] = stack.enter_context(progress.bar(args, total - present, "montecarlo", unit="flights"))
+
+        outcome = C.run(campaign, engine, results=args.results, done=lambda index: bar[0].update(1),
+                        notice=notice, started=started)
+    stats = outcome.stats
+    result = MC.summary(outcome.rows)
+    result.update(workers=stats.get("workers", engine.workers), engine=stats["engine"], wall_time_s=stats["wall_s"],
+                  runs_run=stats["ran"], runs_resumed=stats["present"], worker_restarts=stats["restarts"],
+                  depth_m=args.depth, distance_m=args.distance, controller=args.controller,
+                  model_error=MC.MODEL_ERROR, estimator="truth" if args.truth else "board estimator")
     result["meets_target"] = bool(result["landing_error_p95_m"] is not None and result["landing_error_p95_m"] <= 0.5
                                   and result["landed"] == result["runs"])
-    if args.runs_out:
-        import json
-
-        from roboray.tools.jsonround import rounded
-
-        with open(args.runs_out, "w") as f:
-            json.dump(rounded(results), f, indent=1, default=float)
-        result["runs_file"] = args.runs_out
+    if args.results:
+        result["results_file"] = args.results
+        result["summary_file"] = C.summary_path(args.results)
+        with open(result["summary_file"], "w") as f:
+            json.dump(rounded(result), f, indent=1, sort_keys=True)
+            f.write("\n")
     if args.plot:
-        _plot_landings(results, args.plot, result)
+        _plot_landings(outcome.rows, args.plot, result)
         result["plot"] = args.plot
     emit(args, result, _mc_text)
 
@@ -203,12 +226,15 @@ def _mc_text(r: dict) -> str:
         "landing error p50 %s m, p95 %s m, worst %s m (target p95 <= 0.5 m: %s)" % (
             f(r["landing_error_p50_m"]), f(r["landing_error_p95_m"]), f(r["landing_error_worst_m"]),
             "met" if r["meets_target"] else "NOT met"),
-        "%d workers, %.0f s" % (r["workers"], r["wall_time_s"]),
-    ] + (["plot: %s" % r["plot"]] if r.get("plot") else []))
+        "%s: %d runs in %.0f s%s" % (r["engine"], r["runs_run"], r["wall_time_s"],
+                                     ", %d taken from %s" % (r["runs_resumed"], r["results_file"])
+                                     if r["runs_resumed"] else ""),
+    ] + (["rows: %s, summary: %s" % (r["results_file"], r["summary_file"])] if r.get("results_file") else [])
+      + (["plot: %s" % r["plot"]] if r.get("plot") else []))
 
 
 def landings_figure(results: list, summary: dict):
-    """Landing points relative to their targets, with the requirement (p95
+    """Landing points (``sim/montecarlo.py``'s rows) relative to their targets, with the requirement (p95
     within 0.5 m) and what these landings achieved, as a matplotlib figure:
     left at the requirement's scale, right close up."""
     import matplotlib
@@ -219,11 +245,10 @@ def landings_figure(results: list, summary: dict):
     fig, axes = plt.subplots(1, 2, figsize=(11, 5.6))
     east, north = [], []
     for r in results:
-        if r.get("landing_position") is None:
+        if r.get("landing_north_m") is None:
             continue
-        tn, te = r["target"]
-        east.append(r["landing_position"][1] - te)
-        north.append(r["landing_position"][0] - tn)
+        east.append(r["landing_east_m"] - r["target_east_m"])
+        north.append(r["landing_north_m"] - r["target_north_m"])
     p95 = summary.get("landing_error_p95_m")
     worst = summary.get("landing_error_worst_m") or (max(np.hypot(east, north)) if east else 0.0)
     for ax, lim in ((axes[0], max(0.6, 1.1 * worst)), (axes[1], max(0.02, 1.25 * worst))):
@@ -258,12 +283,13 @@ def _plot_landings(results: list, path: str, summary: dict) -> None:
 
 # --------------------------------------------------------- thesis-control
 def do_thesis_control(args: argparse.Namespace) -> None:
-    from roboray.sim import flight as F
+    from roboray.sim.analysis.authority import authority
+    from roboray.sim.thesis_runs import thesis_run
 
     start = time.perf_counter()
     with progress.bar(args, 3 + len(args.kv2), "thesis-control", unit="runs") as bar:
         def thesis(spin: float, **kw):
-            out = F.thesis_run(spin, duration=args.duration, **kw)
+            out = thesis_run(spin, duration=args.duration, **kw)
             bar.update(1)
             return out
 
@@ -282,7 +308,7 @@ def do_thesis_control(args: argparse.Namespace) -> None:
         "duration_s": args.duration,
         "run1_spin_0.5": moved(run1, uncontrolled),
         "run2_no_spin": {("kv2=%g" % k): moved(r, still) for k, r in runs2.items()},
-        "authority": F.authority(),
+        "authority": authority(),
         "wall_time_s": time.perf_counter() - start,
     }
     if args.plot:
@@ -357,7 +383,7 @@ def thesis_figure(uncontrolled, run1, still, runs2):
 
 # --------------------------------------------------------- bench control
 def do_bench_control(args: argparse.Namespace) -> None:
-    from roboray.sim import flight as F
+    from roboray.sim import controller_costs as F
 
     parts = ["MicroPython"] + list(F.BENCH_FLIGHTS) + ["backstepping", ""]
     upcoming = iter(parts[1:])
@@ -414,14 +440,16 @@ def register(sub, bench) -> None:
 
     p = command(sub, "montecarlo", do_montecarlo, "target landings under random model and sensor errors")
     p.add_argument("--runs", type=_count, default=100, help="number of flights (default 100)")
-    p.add_argument("--workers", type=_count, help="processes (default: one per CPU)")
+    add_engine_options(p, "flights")
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     p.add_argument("--depth", type=positive, default=10.0, help="bottom depth, m (default 10)")
     p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
     p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
                    help="cascade (the flight controller, the default) or backstepping (the thesis's, ch. 4)")
     p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
-    p.add_argument("--runs-out", type=output_file, metavar="FILE.json", help="write every run's figures and model errors")
+    p.add_argument("--results", type=_results_file, metavar="FILE.csv|FILE.parquet",
+                   help="one row a run (its drawn errors and outcomes), written as each lands, and the summary "
+                        "beside it (FILE.summary.json); run again, the same command continues from the rows there")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the landing points around their targets")
     add_json(p)
 

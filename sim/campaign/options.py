@@ -1,0 +1,61 @@
+"""``--workers`` and ``--cluster``: the same two options, the same meaning,
+on every command that runs a campaign."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+from typing import Iterator
+
+from roboray.sim.campaign.engines import Engine, make_engine, parse_cluster, stderr_notice
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
+    if value < 1:
+        raise argparse.ArgumentTypeError("%r must be at least 1" % text)
+    return value
+
+
+def _cluster(text: str) -> str:
+    try:
+        return parse_cluster(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc))
+
+
+def add_engine_options(parser: argparse.ArgumentParser, what: str = "tasks") -> None:
+    parser.add_argument("--workers", type=_count, metavar="N",
+                        help="local processes running the %s (default: one per CPU)" % what)
+    parser.add_argument("--cluster", type=_cluster, metavar="ADDRESS",
+                        help="run the %s on Dask instead: tcp://HOST:PORT of a running 'dask scheduler', or "
+                             "local:N to start a LocalCluster of N workers here (its dashboard link is printed)"
+                        % what)
+
+
+def engine_from_args(args: argparse.Namespace, prog: str = "roboray-sim") -> Engine:
+    """The engine the options name; a usage error (exit 2) when they
+    contradict each other."""
+    from roboray.tools.cli import UsageError
+
+    try:
+        return make_engine(workers=args.workers, cluster=args.cluster, notice=stderr_notice(prog))
+    except ValueError as exc:
+        raise UsageError(str(exc))
+
+
+@contextlib.contextmanager
+def cli_errors() -> Iterator[None]:
+    """An engine that cannot start or a results file of another campaign:
+    one line (``CliError``), not a traceback."""
+    from roboray.sim.campaign.engines import EngineError
+    from roboray.sim.campaign.results import ResultsError
+    from roboray.tools.cli import CliError
+
+    try:
+        yield
+    except (EngineError, ResultsError) as exc:
+        raise CliError(str(exc))
