@@ -55,6 +55,11 @@ bit   failsafe         condition                                        paramete
                        open or shorted divider)
 ====  ===============  ===============================================  =====================  =======
 
+A sensor's condition (depth, IMU, compass, battery monitor) counts once
+its driver has read unhealthy for ``SENSOR_CONFIRM_MS`` (200 ms) in a row:
+the slots after a planned stall (a flash save, up to 150 ms) read stale
+with nothing wrong.
+
 No sensor is failed for a reading that stays the same: a vehicle resting on
 the bottom reads the same depth, attitude and field for as long as it
 rests, and that raises nothing. A lock-up itself is the scheduler's to
@@ -130,6 +135,16 @@ REPEAT_MS = const(10000)    # an active failsafe's report is repeated this often
 EKF_DELAY_MS = const(1000)
 OVERRUN_WINDOW_MS = const(1000)
 DEPTH_REJECTED_MAX = const(8)
+#: A sensor's driver must read unhealthy this long before its failsafe
+#: counts it. A planned stall (a flash save announces up to 150 ms,
+#: ``flash_record.SAVE_STALL_MS``) leaves the IMU's FIFO past what one read
+#: takes and every driver's last sample older than its time-out, so the
+#: slot or two after it read unhealthy with nothing wrong; acting on that
+#: put a healthy vehicle into FAILSAFE mode at a TARGET entry's save. A part
+#: that is really gone stays gone: 200 ms is two evaluations at 10 Hz, and
+#: the estimator coasts over it (ArduPilot likewise waits before its sensor
+#: and EKF failsafes act).
+SENSOR_CONFIRM_MS = const(200)
 
 # Why FAILSAFE mode was entered (Modes.failsafe_cause), by bit.
 _CAUSES = (M.CHECK_FAILED, M.LEAK, M.LOW_BATTERY, M.CHECK_FAILED, M.SENSOR_FAULT, M.SENSOR_FAULT,
@@ -153,6 +168,8 @@ _ALL_VALID = nv.ATTITUDE_VALID | nv.DEPTH_VALID | nv.POSITION_VALID
 # rest are held for HOLD_MS so a sensor that fails now and then does not
 # make the failsafe flap.
 _NO_HOLD = (1 << LINK) | (1 << LEAK) | (1 << LOCKUP)
+# Conditions read from a driver's health, confirmed over SENSOR_CONFIRM_MS.
+_SENSORS = (1 << DEPTH) | (1 << IMU) | (1 << COMPASS) | (1 << BATT_MONITOR)
 _ARM_BLOCKERS = (1 << LEAK) | (1 << IMU) | (1 << DEPTH) | (1 << COMPASS) | (1 << BATTERY) | (1 << BATT_MONITOR)
 
 _PREARM_DEPTH = "PreArm: no depth estimate yet"
@@ -240,6 +257,7 @@ class Failsafes:
         self._repeat_t = self._t0
         self._repeat_i = 0
         self._seen_ms = [0] * COUNT   # when each condition was last true
+        self._bad_ms = [-1] * COUNT   # since when each sensor has read unhealthy (-1: it does not)
         self._depth_implausible = False
         self._holding = 0             # failsafes that switched to FAILSAFE mode, by bit
         self._held_texts = tuple("FAILSAFE held: %s" % NAMES[i] for i in range(COUNT))
@@ -311,6 +329,23 @@ class Failsafes:
             c |= 1 << OVERRUN
         if self._lockup:
             c |= 1 << LOCKUP
+        return self._confirmed(c, now)
+
+    def _confirmed(self, c, now):
+        """``c`` with each sensor's bit kept only once it has been set for
+        SENSOR_CONFIRM_MS in a row (a stall's aftermath is not a fault)."""
+        bad = self._bad_ms
+        for i in range(COUNT):
+            bit = 1 << i
+            if not _SENSORS & bit:
+                continue
+            if c & bit:
+                if bad[i] < 0:
+                    bad[i] = now
+                if _ticks_diff(now, bad[i]) < SENSOR_CONFIRM_MS and not self.active & bit:
+                    c &= ~bit
+            else:
+                bad[i] = -1
         return c
 
     def _ekf_bad(self, now):

@@ -413,15 +413,16 @@ def register(sub, bench) -> None:
                    help="with --radio: after the scenario, keep the vehicle alive (resting where it is, real time, "
                         "radio open) until Ctrl-C, for a ground station still watching; Ctrl-C then ends the run "
                         "normally (exit 0)")
-    args_of = {"radio-corrupt": ":P", "battery-sag": ":V", "powercut": ":N", "overload": ":US"}
+    args_of = {"radio-corrupt": ":P", "battery-sag": ":V", "powercut": ":N", "stall": ":MS", "overload": ":US"}
     p.add_argument("--fault", type=fault, action="append", metavar="NAME[:ARG]@SECONDS",
                    help="inject a fault at SECONDS of simulated time (repeatable): %s; ARG: P the probability a "
                         "byte is corrupted (default %g), V the pack's volts (default %g), N the flash step of a "
-                        "parameter save the power goes at (1-6, default %d), US a clock reading's cost in us "
-                        "(default %d)" % (", ".join(n + ("[%s]" % args_of[n] if n in args_of else "")
+                        "parameter save the power goes at (1-6, default %d), MS an unannounced stall of the chip "
+                        "(1-900 ms, default %d), US a clock reading's cost in us (default %d)" % (", ".join(n + ("[%s]" % args_of[n] if n in args_of else "")
                                                     for n in faults.NAMES),
                                           faults.DEFAULTS["radio-corrupt"], faults.DEFAULTS["battery-sag"],
-                                          faults.DEFAULTS["powercut"], faults.DEFAULTS["overload"]))
+                                          faults.DEFAULTS["powercut"], faults.DEFAULTS["stall"],
+                                          faults.DEFAULTS["overload"]))
     p.add_argument("--key", metavar="PASSPHRASE",
                    help="MAVLink 2 signing: the vehicle's key on its flash before boot (as SETUP_SIGNING puts it) "
                         "and the scripted ground signs with it (MAVProxy's key from PASSPHRASE)")

@@ -22,6 +22,10 @@ name                        what happens
                             that follows (default 3; a save has ``save_steps()``,
                             6: a larger N is refused); the board comes back on
 ``watchdog``                the loop hangs; the watchdog resets the board
+``stall[:MS]``              the chip is busy once for MS milliseconds (default 150,
+                            a flash save's announced stall) without telling the loop:
+                            the slots it spans are missed and every sensor's last
+                            sample is that old when the loop comes back
 ``overload[:US]``           every clock reading costs US microseconds (default 400):
                             the loop overruns, and when it overruns for long enough
                             the watchdog resets the board (which ends the overload)
@@ -46,9 +50,9 @@ SENSORS = ("depth", "imu", "mag")
 #: Sensor fault kinds: ``board/i2c_device.py``'s FAULT_* numbers.
 SENSOR_KINDS = {"ok": 0, "nack": 1, "garbage": 2, "stick": 3}
 NAMES = tuple("%s-%s" % (s, k) for s in SENSORS for k in SENSOR_KINDS) + (
-    "radio-loss", "radio-corrupt", "radio-ok", "battery-sag", "leak", "powercut", "watchdog", "overload")
+    "radio-loss", "radio-corrupt", "radio-ok", "battery-sag", "leak", "powercut", "watchdog", "stall", "overload")
 #: Faults that take an argument, with its default.
-DEFAULTS = {"radio-corrupt": 0.05, "battery-sag": 6.2, "powercut": 3, "overload": 400}
+DEFAULTS = {"radio-corrupt": 0.05, "battery-sag": 6.2, "powercut": 3, "stall": 150, "overload": 400}
 
 
 @dataclass(frozen=True)
@@ -90,8 +94,10 @@ def parse(text: str) -> Fault:
             raise ValueError("fault %r: the corruption probability must be within 0..1" % text)
         if name == "battery-sag" and not 0.0 <= arg <= 20.0:
             raise ValueError("fault %r: the pack voltage must be within 0..20 V" % text)
-        if name in ("powercut", "overload") and (arg < 1 or arg != int(arg)):
+        if name in ("powercut", "stall", "overload") and (arg < 1 or arg != int(arg)):
             raise ValueError("fault %r: %s needs a whole number >= 1" % (text, name))
+        if name == "stall" and not 1 <= arg <= 900:
+            raise ValueError("fault %r: a stall of 1..900 ms (the watchdog bites at 1 s)" % text)
         if name == "powercut" and arg > save_steps():
             raise ValueError("fault %r: a parameter save has %d flash steps, so the power cannot go at "
                              "step %d; use 1..%d" % (text, save_steps(), int(arg), save_steps()))

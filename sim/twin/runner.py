@@ -756,6 +756,8 @@ class Twin:
                 events.append(["cut", int(f.arg)])
             elif name == "watchdog":
                 events.append(["hang"])
+            elif name == "stall":
+                events.append(["stall", int(f.arg)])
             elif name == "overload":
                 events.append(["cost", int(f.arg)])
 

@@ -32,7 +32,8 @@ time, 20 ms: one servo frame) it makes one ``hostlink.request``:
   ``["fault", "depth"|"imu"|"mag", kind]`` (``i2c_device.FAULT_*``),
   ``["cut", n]`` (power goes at the n-th flash step of the next parameter
   save), ``["hang"]`` (the loop stops until the watchdog resets the
-  board), ``["cost", us]`` (every clock reading costs ``us``: an overloaded
+  board), ``["stall", ms]`` (the board is busy once for ``ms``, unannounced),
+  ``["cost", us]`` (every clock reading costs ``us``: an overloaded
   CPU), ``["stop"]`` (end of the run).
 
 A reset (watchdog, ``machine.reset()``, a power cut) ends the application
@@ -94,6 +95,7 @@ class Lockstep:
         self._steps = []
         self._k = 0
         self._hanging = False
+        self._stall_us = 0
         self._inside = False
         self.cost_us = 0
         self.frames = 0
@@ -143,6 +145,20 @@ class Lockstep:
                 self._acc -= step
                 self.boundary()
             self.twin.check_watchdog()
+            stall = self._stall_us
+            if stall:
+                # busy without a word to the loop: time passes and the world
+                # goes on, the firmware runs again after it
+                self._stall_us = 0
+                while stall > 0:
+                    d = step if stall > step else stall
+                    stall -= d
+                    vclock.advance(d)
+                    self._acc += d
+                    while self._acc >= step:
+                        self._acc -= step
+                        self.boundary()
+                    self.twin.check_watchdog()
             while self._hanging:
                 # the loop is stuck: time passes, the world goes on, only the
                 # watchdog can end this (check_watchdog raises BoardReset)
@@ -217,6 +233,8 @@ class Lockstep:
             f.cut_at = f.steps + e[1]
         elif kind == "hang":
             self._hanging = True
+        elif kind == "stall":
+            self._stall_us = e[1] * 1000
         elif kind == "cost":
             self.cost_us = e[1]   # applied when the hook returns
         elif kind == "stop":
