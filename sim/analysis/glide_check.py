@@ -116,7 +116,7 @@ class PlateModel:
     """The quasi-steady plate-drag glide of one vehicle, (G1)-(G6)."""
 
     def __init__(self, params: VehicleParams | Vehicle | None = None) -> None:
-        self.vehicle = params if isinstance(params, Vehicle) else Vehicle(params)
+        self.vehicle: Vehicle = params if isinstance(params, Vehicle) else Vehicle(params)
         self._geometry_cache: dict = {}
 
     def _geometry(self, wings: np.ndarray):
@@ -185,7 +185,7 @@ class PlateModel:
         tilted starts (0.1 and 0.4 rad, eight azimuths), stable or not."""
         wings = np.asarray(wings, float)
         vt = self.vehicle.terminal_speed(wings)
-        starts = [None]
+        starts: list[PlateGlide | None] = [None]
         for theta in (0.1, 0.4):
             for phi in np.arange(8) * (math.pi / 4):
                 g = gamma_of(theta, phi)
