@@ -1,0 +1,164 @@
+"""The hardware pages say what the code says (issue 19): the wiring table of
+docs/user/hardware.md gives the pins ``firmware/boards/pico2.py`` uses, at
+the Pico 2's physical pin numbers; its sensor table the drivers' I2C
+addresses; its bill of materials the masses of
+``sim/vehicles/buildable.py``, adding up to the file's total; its figures
+what the model computes from that file; and docs/figures/wiring.svg labels
+the same pins and addresses. A change to the board profile, a driver or the
+parts table that the page does not follow fails here."""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roboray.firmware.boards import pico2
+from roboray.firmware.drivers import lis3mdl, lsm6dsox, ms5837
+from roboray.sim.vehicle import Vehicle, load_params
+
+ROOT = Path(__file__).resolve().parent.parent
+HARDWARE = ROOT / "docs" / "user" / "hardware.md"
+WIRING_SVG = ROOT / "docs" / "figures" / "wiring.svg"
+BUILDABLE = ROOT / "sim" / "vehicles" / "buildable.py"
+
+#: The Pico 2's physical pin of each GPIO on its edge (Raspberry Pi's pinout:
+#: 1 to 20 down the GP0 side from the USB end, 21 to 40 back up the other).
+PICO2_PIN = {0: 1, 1: 2, 2: 4, 3: 5, 4: 6, 5: 7, 6: 9, 7: 10, 8: 11, 9: 12, 10: 14, 11: 15, 12: 16, 13: 17,
+             14: 19, 15: 20, 16: 21, 17: 22, 18: 24, 19: 25, 20: 26, 21: 27, 22: 29, 26: 31, 27: 32, 28: 34}
+
+#: The wiring table's signals and the board profile's GPIO for each.
+SIGNALS = {
+    "UART0 TX, radio in": pico2.UART_TX, "UART0 RX, radio out": pico2.UART_RX,
+    "I2C0 SDA": pico2.I2C_SDA, "I2C0 SCL": pico2.I2C_SCL,
+    "wing 1 servo": pico2.SERVO_PINS[0], "wing 2 servo": pico2.SERVO_PINS[1],
+    "wing 3 servo": pico2.SERVO_PINS[2], "wing 4 servo": pico2.SERVO_PINS[3],
+    "leak probe": pico2.LEAK_PIN, "battery sense, ADC0": pico2.BATTERY_ADC_PIN,
+}
+
+
+def _section(title: str) -> str:
+    """The text of hardware.md's ``## title`` section."""
+    text = HARDWARE.read_text(encoding="utf-8")
+    m = re.search(r"^## %s\n(.*?)(?=^## |\Z)" % re.escape(title), text, re.M | re.S)
+    assert m, "hardware.md has no section %r" % title
+    return m.group(1)
+
+
+def _table(section: str) -> list[list[str]]:
+    """The rows (cells stripped) of the first Markdown table in ``section``, header and rule left out."""
+    rows = [[c.strip() for c in line.strip().strip("|").split("|")]
+            for line in section.splitlines() if line.lstrip().startswith("|")]
+    assert len(rows) > 2
+    return rows[2:]
+
+
+def _grams(cell: str) -> float:
+    m = re.fullmatch(r"\**([0-9.]+) g\**", cell)
+    assert m, "not a mass: %r" % cell
+    return float(m.group(1))
+
+
+def _buildable():
+    namespace: dict = {}
+    exec(compile(BUILDABLE.read_text(encoding="utf-8"), str(BUILDABLE), "exec"), namespace)
+    return namespace
+
+
+def test_the_pico2_pin_map_is_the_boards():
+    # the map's GPIOs are the Pico 2's edge pins: 26 of them, none twice, no
+    # power pin among them (3, 8, ... 38 ground, 30 RUN, 33 AGND, 35-40 power)
+    assert len(set(PICO2_PIN.values())) == len(PICO2_PIN) == 26
+    assert not set(PICO2_PIN.values()) & {3, 8, 13, 18, 23, 28, 30, 33, 35, 36, 37, 38, 39, 40}
+
+
+def test_the_wiring_table_gives_the_board_profiles_pins():
+    assert pico2.UART_ID == 0 and pico2.I2C_ID == 0   # the table says UART0 and I2C0
+    found = {}
+    for row in _table(_section("Wiring")):
+        m = re.fullmatch(r"(\d+) \(GP(\d+)\)", row[1])
+        if m:
+            found[row[0]] = (int(m.group(1)), int(m.group(2)))
+    assert set(found) == set(SIGNALS)
+    for signal, gpio in SIGNALS.items():
+        pin, gp = found[signal]
+        assert gp == gpio, "%s: the page says GP%d, the board profile GP%d" % (signal, gp, gpio)
+        assert pin == PICO2_PIN[gpio], "%s: GP%d is pin %d, not %d" % (signal, gpio, PICO2_PIN[gpio], pin)
+    # the servo note's rule and the profile's frequency
+    assert "Wing *i* is on GP(9+*i*), 50 Hz" in _section("Wiring")
+    assert pico2.SERVO_PINS == tuple(9 + i for i in (1, 2, 3, 4)) and pico2.SERVO_FREQ == 50
+
+
+def test_the_sensor_table_gives_the_drivers_addresses():
+    rows = {row[1]: row[2] for row in _table(_section("The board and the sensors"))}
+    expected = {
+        "ST LSM6DSOX (on Adafruit 4517)": (lsm6dsox.ADDRESS, pico2.LSM6DSOX_ADDR),
+        "ST LIS3MDL (on Adafruit 4517)": (lis3mdl.ADDRESS, pico2.LIS3MDL_ADDR),
+        "TE MS5837-30BA (Blue Robotics Bar30)": (ms5837.ADDRESS, pico2.MS5837_ADDR),
+    }
+    assert set(rows) == set(expected)
+    for part, (driver, profile) in expected.items():
+        assert driver == profile
+        assert rows[part] == "I2C%d, 0x%02X" % (pico2.I2C_ID, driver), part
+    assert "The bus runs at %d kHz on GP%d (SDA) and GP%d (SCL)" % (
+        pico2.I2C_FREQ // 1000, pico2.I2C_SDA, pico2.I2C_SCL) in _section("The board and the sensors")
+
+
+def test_the_bill_of_materials_has_the_parts_tables_masses_and_total():
+    b = _buildable()
+    rows = _table(_section("Bill of materials"))
+    total = rows.pop()
+    assert total[0] == "**total**"
+    assert _grams(total[3]) == round(b["VEHICLE"].total_mass * 1000, 1)
+    # every entry of PARTS is a row, by its part (or its name) and its mass
+    for name, part, mass, *_ in b["PARTS"]:
+        hits = [r for r in rows if (part in r[1] or name == r[0]) and _grams(r[3]) == round(mass * 1000, 1)]
+        assert hits, "PARTS' %s (%s, %.1f g) is not in the bill of materials" % (name, part, mass * 1000)
+    # what Vehicle builds itself from the file's sheet sizes and densities
+    plate = b["RHO_AL5052"] * b["PLATE_SIDE"] ** 2 * b["THICKNESS"]
+    wing = b["RHO_PVC"] * 0.5 * b["PLATE_SIDE"] * b["WING_HEIGHT"] * b["THICKNESS"]
+    r_out, r_in = 0.5 * b["DOME_OD"], 0.5 * b["DOME_OD"] - b["DOME_WALL"]
+    dome = b["RHO_ACRYLIC"] * (2.0 / 3.0) * math.pi * (r_out ** 3 - r_in ** 3)
+    by_name = {r[0]: r for r in rows}
+    for name, mass in (("plate", plate), ("wings", wing), ("dome", dome), ("wing servos", b["SERVO_MASS"])):
+        assert _grams(by_name[name][3]) == round(mass * 1000, 1), name
+    # and the rows add up to the total: count x mass each
+    summed = sum(int(r[2].split()[0]) * _grams(r[3]) for r in rows)
+    assert summed == pytest.approx(b["VEHICLE"].total_mass * 1000, abs=0.3)
+
+
+def test_the_pages_figures_are_what_the_model_computes():
+    params = load_params(BUILDABLE)
+    vehicle = Vehicle(params)
+    p = vehicle.properties(np.zeros(4))
+    text = " ".join(HARDWARE.read_text(encoding="utf-8").split())
+    in_water_g = p["net_weight"] / params.g * 1000
+    for figure in ("mass %.1f g" % (p["mass"] * 1000),
+                   "displaced volume %.1f cm^3" % (p["displaced_volume"] * 1e6),
+                   "weighs %.3f N (%.0f g) in fresh water" % (p["net_weight"], in_water_g),
+                   "falls flat at %.3f m/s" % p["terminal_speed"],
+                   "the CG %.1f mm below the centre of buoyancy" % (p["ell"] * 1000),
+                   "%.0f g in fresh water (%.3f N" % (in_water_g, p["net_weight"])):
+        assert figure in text, figure
+    # the sensor positions the page prints for the buildable vehicle
+    cb = vehicle.centre_of_buoyancy([0.0, 0.0, 0.0, 0.0])
+    ins = ", ".join("%.4f" % (round(a - c, 4) + 0.0) for a, c in zip(params.imu_position, cb))
+    baro = ", ".join("%.4f" % (round(a - c, 4) + 0.0) for a, c in zip(params.pressure_port, cb))
+    assert "`INS_POS1` %s and `BARO_POS` %s (m)" % (ins, baro) in text
+
+
+def test_the_wiring_diagram_labels_the_same_pins_and_addresses():
+    texts = [" ".join("".join(t.itertext()).split()) for t in ET.parse(WIRING_SVG).getroot().iter()
+             if t.tag.endswith("}text")]
+    for signal, gpio in SIGNALS.items():
+        pin = str(PICO2_PIN[gpio])
+        assert any("GP%d" % gpio in t.split() and pin in t.split() for t in texts), \
+            "wiring.svg has no label for %s (pin %s, GP%d)" % (signal, pin, gpio)
+    labels = " ".join(texts)
+    for address in (lsm6dsox.ADDRESS, lis3mdl.ADDRESS, ms5837.ADDRESS):
+        assert "0x%02X" % address in labels
+    assert "VSYS 39" in labels and "3V3 OUT 36" in labels and "AGND 33" in labels
