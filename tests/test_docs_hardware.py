@@ -162,3 +162,11 @@ def test_the_wiring_diagram_labels_the_same_pins_and_addresses():
     for address in (lsm6dsox.ADDRESS, lis3mdl.ADDRESS, ms5837.ADDRESS):
         assert "0x%02X" % address in labels
     assert "VSYS 39" in labels and "3V3 OUT 36" in labels and "AGND 33" in labels
+
+
+def test_the_user_guide_index_lists_every_user_page():
+    index = ROOT / "docs" / "user" / "README.md"
+    linked = set(re.findall(r"\]\(([\w-]+\.md)(?:#[\w-]+)?\)", index.read_text(encoding="utf-8")))
+    pages = {p.name for p in index.parent.glob("*.md")} - {"README.md"}
+    assert {"hardware.md", "calibration.md", "first-dive.md"} <= pages
+    assert pages - linked == set(), "docs/user/README.md does not list %s" % sorted(pages - linked)
