@@ -116,9 +116,11 @@ def search_cost(step_deg: float = 15.0, settle_s: float = 40.0, refine: bool = T
 
 
 def search(params=None, step_deg: float = 15.0, settle_s: float = 40.0, refine: bool = True,
-           progress=QUIET) -> dict:
+           progress=QUIET, settle=settle_batch) -> dict:
     """Grid over both families, then local refinement of the best stable
-    glide. ``progress`` (``sim/progress.py``) advances by ``search_cost``."""
+    glide. ``progress`` (``sim/progress.py``) advances by ``search_cost``;
+    ``settle``, ``settle_batch`` or one that runs the grid elsewhere
+    (``sim/campaign/grid.py``)."""
     model = Model(params)
     grid = np.arange(0.0, 90.0 + 1e-9, step_deg)
     candidates = []
@@ -126,7 +128,7 @@ def search(params=None, step_deg: float = 15.0, settle_s: float = 40.0, refine: 
         pts = _grid(family, grid)
         wings = np.array([family_wings(family, p) for p in pts])
         progress.set_postfix_str("%s family, %d configurations" % (family, len(pts)))
-        trims = settle_batch(params, wings, settle_s, progress)
+        trims = settle(params, wings, settle_s, progress)
         for p, w, t in zip(pts, wings, trims):
             candidates.append({"family": family, "params": p, "wings_deg": w, **(evaluate(model, t) or {"trim": None,
                                "stable": False, "max_real_eig": None})})

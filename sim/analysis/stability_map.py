@@ -70,8 +70,11 @@ def _reduced(vehicle: Vehicle, wings_deg) -> tuple[float, float]:
     return spec["max_real_eig"], slowest
 
 
-def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0, progress=QUIET) -> dict:
-    """Both slices; ``progress`` (``sim/progress.py``) advances by ``compute_cost``."""
+def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0, progress=QUIET,
+            settle=settle_batch) -> dict:
+    """Both slices; ``progress`` (``sim/progress.py``) advances by
+    ``compute_cost``; ``settle``, ``envelope.settle_batch`` or one that runs
+    the grid elsewhere (``sim/campaign/grid.py``)."""
     vehicle = Vehicle(params)
     model = Model(params)
     axis = np.arange(0.0, 90.0 + 1e-9, step_deg)
@@ -84,7 +87,7 @@ def compute(params=None, step_deg: float = 10.0, settle_s: float = 30.0, progres
         for k, w in enumerate(configs):
             reduced[k], tilt_hz[k] = _reduced(vehicle, w)
             progress.update(COST_REDUCED_S)
-        trims = settle_batch(params, np.array(configs), settle_s, progress)
+        trims = settle(params, np.array(configs), settle_s, progress)
         drag = np.full(len(configs), np.nan)
         glide = np.full(len(configs), np.nan)
         for k, t in enumerate(trims):

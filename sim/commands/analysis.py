@@ -8,6 +8,7 @@ import argparse
 import numpy as np
 
 from roboray.sim import progress
+from roboray.sim.campaign.options import add_engine_options
 from roboray.sim.commands.dynamics import add_vehicle_options, vehicle_params, wings_deg
 from roboray.tools.cli import CliError, UsageError, add_json, command, emit, number, output_file, positive
 
@@ -124,10 +125,15 @@ def do_modes(args: argparse.Namespace) -> None:
 # ------------------------------------------------------------ envelope, map
 def do_envelope(args: argparse.Namespace) -> None:
     from roboray.sim.analysis import envelope
+    from roboray.sim.campaign import cli_errors, engine_from_args
+    from roboray.sim.campaign.grid import settler
 
-    with progress.bar(args, envelope.search_cost(args.step, args.settle, not args.no_refine), "envelope") as bar:
+    engine = engine_from_args(args)
+    with progress.bar(args, envelope.search_cost(args.step, args.settle, not args.no_refine), "envelope") as bar, \
+            cli_errors(), engine:
         result = envelope.search(vehicle_params(args), step_deg=args.step, settle_s=args.settle,
-                                 refine=not args.no_refine, progress=bar)
+                                 refine=not args.no_refine, progress=bar, settle=settler(engine))
+    result["engine"] = engine.describe()
     candidates = result.pop("candidates")
     if args.plot:
         _plot_envelope(candidates, result, args.plot)
@@ -174,9 +180,15 @@ def _plot_envelope(candidates, result, path):
 
 def do_stability_map(args: argparse.Namespace) -> None:
     from roboray.sim.analysis import stability_map
+    from roboray.sim.campaign import cli_errors, engine_from_args
+    from roboray.sim.campaign.grid import settler
 
-    with progress.bar(args, stability_map.compute_cost(args.step, args.settle), "stability-map") as bar:
-        result = stability_map.compute(vehicle_params(args), step_deg=args.step, settle_s=args.settle, progress=bar)
+    engine = engine_from_args(args)
+    with progress.bar(args, stability_map.compute_cost(args.step, args.settle), "stability-map") as bar, \
+            cli_errors(), engine:
+        result = stability_map.compute(vehicle_params(args), step_deg=args.step, settle_s=args.settle, progress=bar,
+                                       settle=settler(engine))
+    result["engine"] = engine.describe()
     stability_map.plot(result, args.out)
     result["plot"] = args.out
     summary = {}
@@ -297,6 +309,7 @@ def register(sub, bench) -> None:
     p.add_argument("--settle", type=positive, default=40.0, help="seconds of free fall to settle (default 40)")
     p.add_argument("--no-refine", action="store_true", help="skip the local optimiser")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="glide ratio against descent speed of every trim")
+    add_engine_options(p, "grid's drops")
     add_vehicle_options(p)
     add_json(p)
 
@@ -315,5 +328,6 @@ def register(sub, bench) -> None:
     p.add_argument("--out", required=True, type=output_file, metavar="FILE.png", help="the figure to write")
     p.add_argument("--step", type=positive, default=10.0, help="grid step, degrees (default 10)")
     p.add_argument("--settle", type=positive, default=30.0, help="seconds of free fall to settle (default 30)")
+    add_engine_options(p, "grid's drops")
     add_vehicle_options(p)
     add_json(p)
