@@ -18,6 +18,7 @@ TOPICS = (
     "roboray.sim.commands.hardware",
     "roboray.sim.commands.estimator",
     "roboray.sim.commands.control",
+    "roboray.sim.commands.campaign",
     "roboray.sim.commands.sweep",
     "roboray.sim.commands.board",
     "roboray.sim.commands.sil",

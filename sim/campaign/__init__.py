@@ -17,7 +17,7 @@ The API a command builds on::
                   notice=stderr_notice(), started=lambda total, present: ...)
     outcome.rows     # one row per task, in index order
     outcome.stats    # tasks, present (from the file), ran, engine, workers, wall_s,
-                     # task_cpu_s (the tasks' own CPU), restarts (pools rebuilt)
+                     # task_cpu_s and task_wall_s (the tasks' own), restarts (pools rebuilt)
 
 - Determinism: a task's row depends on the task alone. Every worker is
   single-threaded (numba, OpenMP, BLAS), so the rows are bit for bit the

@@ -2,9 +2,11 @@
 or a Dask distributed cluster.
 
 Every engine maps one function over ``(index, task)`` pairs and yields
-``(index, row, cpu_s)`` as tasks finish, in whatever order they finish;
-``cpu_s`` is the task's own CPU time in the thread that ran it, the figure
-``bench campaign`` subtracts from the engine's time to find its overhead.
+``(index, row, cpu_s, wall_s)`` as tasks finish, in whatever order they
+finish; ``cpu_s`` is the task's own CPU time in the thread that ran it and
+``wall_s`` its time from start to end there (more than ``cpu_s`` when the
+machine's cores are shared), the figures ``bench campaign`` subtracts from
+the engine's time to find its overhead.
 
 Faults: a local worker process that dies breaks its whole pool
 (``BrokenProcessPool``: every unfinished future fails at once), so the
@@ -52,11 +54,12 @@ def single_thread() -> None:
 
 
 def call(fn: Callable, index: int, task) -> tuple:
-    """Run one task where the engine put it: ``(index, fn(task), cpu_s)``."""
+    """Run one task where the engine put it: ``(index, fn(task), cpu_s, wall_s)``."""
     single_thread()
     start = time.thread_time()
+    wall = time.perf_counter()
     row = fn(task)
-    return index, row, time.thread_time() - start
+    return index, row, time.thread_time() - start, time.perf_counter() - wall
 
 
 def _worker_start() -> None:

@@ -71,14 +71,14 @@ def run(campaign: Campaign, engine: Engine, results: Optional[str] = None,
     started(total, len(rows))
     todo = [(i, campaign.tasks[i]) for i in range(total) if i not in rows]
     stats = {"tasks": total, "present": len(rows), "ran": 0, "engine": engine.describe(), "task_cpu_s": 0.0,
-             "wall_s": 0.0, "restarts": 0}
+             "task_wall_s": 0.0, "wall_s": 0.0, "restarts": 0}
     t0 = time.perf_counter()
     try:
         if todo:
             with engine.session():
                 stats["engine"] = engine.describe()
                 stats["workers"] = engine.workers
-                for index, row, cpu_s in engine.map_unordered(campaign.fn, todo):
+                for index, row, cpu_s, wall_s in engine.map_unordered(campaign.fn, todo):
                     if index in rows:
                         continue
                     if store is not None:
@@ -87,6 +87,7 @@ def run(campaign: Campaign, engine: Engine, results: Optional[str] = None,
                     rows[index] = row
                     stats["ran"] += 1
                     stats["task_cpu_s"] += cpu_s
+                    stats["task_wall_s"] += wall_s
                     done(index)
                 stats["restarts"] = getattr(engine, "restarts", 0)
         if store is not None:
