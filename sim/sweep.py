@@ -203,6 +203,13 @@ def point_vehicle(base, parameters: Sequence[Parameter], values: Sequence[float]
     return dataclasses.replace(base, **changes) if changes else base
 
 
+def base_values(base, parameters: Sequence[Parameter]) -> dict:
+    """Each parameter's value before the sweep: the vehicle file's, or the
+    controller's default."""
+    gains = controller_defs()
+    return {p.name: gains[p.name][0] if p.controller else float(getattr(base, p.name)) for p in parameters}
+
+
 def point_gains(parameters: Sequence[Parameter], values: Sequence[float]) -> tuple:
     """The point's controller overrides, ``FlightSpec.ctl``'s form."""
     return tuple((p.name, float(v)) for p, v in zip(parameters, values) if p.controller)
@@ -443,8 +450,15 @@ def figure(result: dict):
         ax1.legend(title="of %d landings a point" % result["runs_per_point"], fontsize=8)
         ax1.grid(True, alpha=0.3)
         ratio = get("best_glide_ratio")
-        ax2.plot(x[order], ratio[order], "o-", color="C2", label="best stable glide (envelope)")
+        # drawn wide beneath: where the best glide is the two-wing fold the lines coincide
+        ax2.plot(x[order], ratio[order], "o-", color="C2", lw=5, ms=10, alpha=0.45,
+                 label="best stable glide (envelope)")
         ax2.plot(x[order], get("two_up_glide_ratio")[order], "s--", color="C4", label="wings 3, 4 folded up")
+        base = result.get("base_values", {}).get(name)
+        if base is not None and x.min() <= base <= x.max():
+            for ax in (ax1, ax2):
+                ax.axvline(base, color="grey", lw=1, ls="-.")
+            ax2.plot([], [], color="grey", lw=1, ls="-.", label="the vehicle's own value (%.4g)" % base)
         ax2.set_ylabel("glide ratio (horizontal / vertical)")
         ax2.set_xlabel(label(name))
         ax2.grid(True, alpha=0.3)

@@ -101,6 +101,7 @@ def do_sweep(args: argparse.Namespace) -> None:
               "release_depth_m": FlightSpec.start_depth, "controller": args.controller,
               "estimator": "truth" if args.truth else "board estimator", "model_error": S.MC.MODEL_ERROR,
               "envelope_step_deg": args.envelope_step}
+    result["base_values"] = S.base_values(base, parameters)
     result.update(S.summary(outcome.rows, parameters, args.depth))
     result.update(tasks=stats["tasks"], tasks_run=stats["ran"], tasks_resumed=stats["present"],
                   engine=stats["engine"], workers=stats.get("workers", engine.workers), wall_time_s=stats["wall_s"],
