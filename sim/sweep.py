@@ -385,6 +385,8 @@ def summary(rows: Sequence[dict], parameters: Sequence[Parameter], depth: float)
                                             "landing_error_worst_m", "landing_error_mean_m", "max_tilt_deg")})
         entry["landed_fraction"] = stats["landed"] / stats["runs"] if stats["runs"] else None
         entry["landing_descent_mps"] = float(np.mean(speeds)) if speeds else None
+        travel = [r["servo_travel_deg"] for r in landings if r.get("servo_travel_deg") is not None]
+        entry["servo_travel_mean_deg"] = float(np.mean(travel)) if travel else None
         points.append(entry)
     front = pareto(points)
     for k, p in enumerate(points):
@@ -430,8 +432,13 @@ def figure(result: dict):
     title = "Design sweep of the %s vehicle: %d points, %d landings each from %g m onto targets %g m away" % (
         result["vehicle"], len(points), result["runs_per_point"], result["depth_m"], result["distance_m"])
     held = [p for p in result["parameters"] if p[1] == p[2]]
+    notes = []
     if held:
-        title += "\n(held: %s)" % ", ".join("%s = %g" % (p[0], p[1]) for p in held)
+        notes.append("held: %s" % ", ".join("%s = %g" % (p[0], p[1]) for p in held))
+    if len(varying) > 2:
+        notes.append("also varied, not drawn: %s (the summary has every value)" % ", ".join(p[0] for p in varying[2:]))
+    if notes:
+        title += "\n(%s)" % "; ".join(notes)
     height = result["depth_m"] - result["release_depth_m"]
 
     def get(key):
@@ -470,6 +477,8 @@ def figure(result: dict):
             ax2.set_ylim(lo - 0.05, hi + 0.05)
         for k in result["pareto"]:
             p = points[[q["point"] for q in points].index(k)]
+            if p["landing_error_p95_m"] is None:
+                continue
             ax1.plot([p["values"][name]], [p["landing_error_p95_m"] * 100], "o", ms=13, mfc="none", mec="C3")
         ax1.plot([], [], "o", ms=10, mfc="none", mec="C3", label="Pareto front (reach vs p95)")
         ax1.legend(title="of %d landings a point" % result["runs_per_point"], fontsize=8)

@@ -128,16 +128,17 @@ def _text(r: dict) -> str:
              "(%s controller, %s):" % (r["vehicle"], r["sampling"], len(r["points"]), r["runs_per_point"],
                                        r["depth_m"], r["distance_m"], r["controller"], r["estimator"])]
     head = "%-5s " % "point" + " ".join("%12s" % n[:12] for n in names) + \
-        " %8s %8s %8s %7s %8s %8s %8s %7s" % ("fall m/s", "fold m/s", "glide", "reach m", "p50 m", "p95 m",
-                                               "worst m", "landed")
+        " %8s %8s %8s %7s %8s %8s %8s %7s %8s" % ("fall m/s", "fold m/s", "glide", "reach m", "p50 m", "p95 m",
+                                                    "worst m", "landed", "tilt deg")
     lines.append(head)
     for p in r["points"]:
         lines.append("%-5s " % ("%d%s" % (p["point"], "*" if p["pareto"] else ""))
                      + " ".join("%12.5g" % p["values"][n] for n in names)
-                     + " %8s %8s %8s %7s %8s %8s %8s %7s" % (
+                     + " %8s %8s %8s %7s %8s %8s %8s %7s %8s" % (
                          f(p["fall_speed_mps"]), f(p["fold_descent_mps"]), f(p["best_glide_ratio"]),
                          f(p["reach_m"], "%.2f"), f(p["landing_error_p50_m"]), f(p["landing_error_p95_m"]),
-                         f(p["landing_error_worst_m"]), "%d/%d" % (p["landed"], p["runs"])))
+                         f(p["landing_error_worst_m"]), "%d/%d" % (p["landed"], p["runs"]),
+                         f(p["max_tilt_deg"], "%.1f")))
     lines.append("* on the Pareto front (no other point reaches farther with a smaller p95 landing error)")
     lines.append("%s: %d tasks run in %.0f s%s" % (r["engine"], r["tasks_run"], r["wall_time_s"],
                                                    ", %d taken from %s" % (r["tasks_resumed"], r["results_file"])
