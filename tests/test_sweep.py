@@ -62,6 +62,8 @@ def test_bad_parameter_is_one_line_and_exit_2(capsys, param, says):
     (["--param", "total_mass=1.0:1.1", "--param", "total_mass=1.0:1.2"], "given twice"),
     (["--param", "total_mass=1.0:1.1", "--distance", "9"], "beyond the reach"),
     (["--param", "total_mass=1.0:1.1", "--vehicle", "no-such-vehicle.py"], "no such file"),
+    (["--param", "total_mass=1.0:1.1", "--param", "cd=1:1.3", "--param", "CTL_TGT_K=1:3", "--grid", "101"],
+     "1030301 points x (1 landings + 1) is 2060602 tasks"),
 ])
 def test_other_mistakes_are_one_line(capsys, args, says):
     code, err = refused(capsys, *args, "--runs", "1", "--workers", "1")

@@ -12,6 +12,10 @@ from roboray.sim.campaign.options import add_engine_options
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, output_file, positive
 
 
+#: A campaign's tasks are made and held at once (a grid grows as N^k).
+MAX_TASKS = 1_000_000
+
+
 def _parameter(text: str):
     from roboray.sim.sweep import parse_parameter
 
@@ -67,6 +71,10 @@ def do_sweep(args: argparse.Namespace) -> None:
     levels = args.grid if args.grid is not None or args.lhs is not None else 5
     if all(p.fixed for p in parameters):
         raise UsageError("every --param holds one value: give at least one a range LO:HI to sweep")
+    count = S.point_count(parameters, levels, args.lhs)
+    if count * (args.runs + 1) > MAX_TASKS:
+        raise UsageError("%d points x (%d landings + 1) is %d tasks, more than the %d one campaign holds: fewer "
+                         "levels or parameters, or --lhs" % (count, args.runs, count * (args.runs + 1), MAX_TASKS))
     points = S.latin_hypercube(parameters, args.lhs, args.seed) if args.lhs is not None else S.grid(parameters, levels)
     sampling = "lhs" if args.lhs is not None else "grid"
     try:
