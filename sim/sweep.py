@@ -429,7 +429,7 @@ def figure(result: dict):
 
     points = result["points"]
     varying = [p for p in result["parameters"] if p[1] != p[2]]
-    title = "Design sweep of the %s vehicle: %d points, %d landings each from %g m onto targets %g m away" % (
+    title = "Design sweep of the %s vehicle\n%d points, %d landings each from %g m onto targets %g m away" % (
         result["vehicle"], len(points), result["runs_per_point"], result["depth_m"], result["distance_m"])
     held = [p for p in result["parameters"] if p[1] == p[2]]
     notes = []
@@ -438,7 +438,7 @@ def figure(result: dict):
     if len(varying) > 2:
         notes.append("also varied, not drawn: %s (the summary has every value)" % ", ".join(p[0] for p in varying[2:]))
     if notes:
-        title += "\n(%s)" % "; ".join(notes)
+        title += " (%s)" % "; ".join(notes)
     height = result["depth_m"] - result["release_depth_m"]
 
     def get(key):
@@ -499,9 +499,8 @@ def figure(result: dict):
     front = [q for q in points if q["pareto"] and q["landing_error_p95_m"] is not None]
     front.sort(key=lambda q: q["best_glide_ratio"])
     if front:
-        ax.step([q["best_glide_ratio"] * height for q in front], [q["landing_error_p95_m"] * 100 for q in front],
-                where="post", color="C3", lw=1.5, zorder=2, label="Pareto front: nothing reaches farther and lands "
-                                                                    "closer")
+        ax.plot([q["best_glide_ratio"] * height for q in front], [q["landing_error_p95_m"] * 100 for q in front],
+                "--", color="C3", lw=1.5, zorder=2, label="Pareto front: nothing reaches farther and lands closer")
         ax.scatter([q["best_glide_ratio"] * height for q in front], [q["landing_error_p95_m"] * 100 for q in front],
                    s=[sizes[points.index(q)] + 120 for q in front], facecolors="none", edgecolors="C3", zorder=4)
     for k, p in enumerate(points):
@@ -517,9 +516,12 @@ def figure(result: dict):
                 transform=ax.transAxes, fontsize=8, color="C3")
     ax.set_xlabel("reach: best stable glide ratio x %g m of height (m)" % height)
     ax.set_ylabel("landing error p95 (cm)")
-    ax.set_ylim(bottom=0)
+    top = np.nanmax(p95) if np.isfinite(p95).any() else 1.0
+    ax.set_ylim(0, 1.12 * top)
+    ax.text(0.99, 0.01, "numbers: the summary's points", transform=ax.transAxes, ha="right", fontsize=7,
+            color="grey")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=3)
     ax.set_title(title, fontsize=10)
     fig.tight_layout()
     return fig
