@@ -269,6 +269,8 @@ class Model:
         keep_s = (np.abs(self.Cvs) > tol).any(axis=0)
         self.vs_idx = np.ascontiguousarray(np.argwhere(keep_s))    # (L, 3): wing, basis, row
         self.vs_val = np.ascontiguousarray(self.Cvs[:, self.vs_idx[:, 0], self.vs_idx[:, 1], self.vs_idx[:, 2]])
+        vv_at = np.ascontiguousarray(vv_idx, dtype=np.uint32)            # the kernels' copies, unsigned
+        vs_at = np.ascontiguousarray(self.vs_idx, dtype=np.uint32)
         col = lambda k: self.P[:, k:k + 1]      # noqa: E731 - (V, 1) views
         self.mass, self.rho, self.g = col(kernels.P_MASS), col(kernels.P_RHO), col(kernels.P_G)
         self.volume, self.tau, self.rate = col(kernels.P_VOLUME), col(kernels.P_TAU), col(kernels.P_RATE)
@@ -291,7 +293,7 @@ class Model:
                  kernels.O_SLIP]] = [1.0, bt.depth, bt.stiffness, bt.damping, bt.friction, bt.slip_speed]
         self.opt = opt
         #: everything the kernels need, as one tuple
-        self.T = (self.C0, self.vv_idx, self.vv_val, self.vs_idx, self.vs_val, self.P, self.opt)
+        self.T = (self.C0, vv_at, self.vv_val, vs_at, self.vs_val, self.P, self.opt)
 
     # ------------------------------------------------------------ inertia
     def inertia(self, s: np.ndarray):

@@ -11,10 +11,11 @@ Tables (built by ``dynamics.Model``), first axis the vehicle (size 1 when
 the batch shares one vehicle), passed as one tuple ``T``:
 
 - ``c0`` (V, 36): centre-body inertia at O (rigid + added), row-major 6x6;
-- ``vv_idx`` (K, 3) / ``vv_val`` (V, K): the non-zero Fourier terms of the
-  wings' inertia, (wing, basis function, flat index in the upper triangle);
-- ``vs_idx`` (L, 3) / ``vs_val`` (V, L): the same for the coupling M_vs,
-  (wing, basis function, row);
+- ``vv_at`` (K, 4) / ``vv_val`` (V, K): the non-zero Fourier terms of the
+  wings' inertia, (wing, basis function, row, column in the upper
+  triangle), unsigned;
+- ``vs_at`` (L, 3) / ``vs_val`` (V, L): the same for the coupling M_vs,
+  (wing, basis function, row), unsigned;
 - ``p`` (V, NP): scalars at the ``P_*`` columns;
 - ``opt`` (NOPT,): switches and options at the ``O_*`` entries.
 """
@@ -24,6 +25,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numba
 from numba import njit, prange
 
 # Columns of p
@@ -45,7 +47,8 @@ HINGE = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0
 # Rows of the 3-vector scratch
 _F, _M, _U, _FP, _OM, _WB, _WATER, _TMP, _RG, _RB, _PT, _VB, _VW = range(13)
 
-_JIT = dict(cache=True, nogil=True)
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+_HOT = dict(_JIT, _nrt=False)
 
 
 def scratch():
@@ -58,7 +61,7 @@ def scratch():
 _scratch = njit(**_JIT)(scratch)
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def _basis(c1, s1, out):
     """out[0..8] = 1, cos s, sin s, cos 2s, sin 2s, ..., sin 4s from c1 = cos s, s1 = sin s."""
     c2 = c1 * c1 - s1 * s1
@@ -74,7 +77,7 @@ def _basis(c1, s1, out):
     out[8] = 2.0 * s2 * c2
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def trig(s, cs):
     """cs[i] = (cos s_i, sin s_i): every use of the wing angles needs both."""
     for i in range(4):
@@ -82,27 +85,29 @@ def trig(s, cs):
         cs[i, 1] = math.sin(s[i])
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def inertia_into(v, cs, T, basis, mvv, mvs):
     """M_vv (6x6) and M_vs (6x4) of vehicle table v at wing angles whose
-    cosines and sines are cs (4, 2)."""
-    c0, vv_idx, vv_val, vs_idx, vs_val = T[0], T[1], T[2], T[3], T[4]
-    for k in range(36):
-        mvv[k // 6, k % 6] = c0[v, k]
+    cosines and sines are cs (4, 2). The index tables are unsigned: numba
+    then indexes without testing for negative indices, a third of this
+    loop's time."""
+    c0, vv_at, vv_val, vs_at, vs_val = T[0], T[1], T[2], T[3], T[4]
+    for a in range(6):
+        for b in range(6):
+            mvv[a, b] = c0[v, 6 * a + b]
     for i in range(4):
         _basis(cs[i, 0], cs[i, 1], basis[i])
-    for t in range(vv_idx.shape[0]):
-        k = vv_idx[t, 2]
-        mvv[k // 6, k % 6] += basis[vv_idx[t, 0], vv_idx[t, 1]] * vv_val[v, t]
+    for t in range(vv_at.shape[0]):
+        mvv[vv_at[t, 2], vv_at[t, 3]] += basis[vv_at[t, 0], vv_at[t, 1]] * vv_val[v, t]
     for a in range(6):
         for b in range(a + 1, 6):
             mvv[b, a] = mvv[a, b]
     mvs[:, :] = 0.0
-    for t in range(vs_idx.shape[0]):
-        mvs[vs_idx[t, 2], vs_idx[t, 0]] += basis[vs_idx[t, 0], vs_idx[t, 1]] * vs_val[v, t]
+    for t in range(vs_at.shape[0]):
+        mvs[vs_at[t, 2], vs_at[t, 0]] += basis[vs_at[t, 0], vs_at[t, 1]] * vs_val[v, t]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def cholesky6(a, l):
     """l l^T = a for symmetric positive definite a (6x6)."""
     for i in range(6):
@@ -116,7 +121,7 @@ def cholesky6(a, l):
                 l[i, j] = acc / l[j, j]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def solve6(l, b, y, out):
     """Solve l l^T x = b; y (6,) is scratch."""
     for i in range(6):
@@ -131,7 +136,7 @@ def solve6(l, b, y, out):
         out[i] = acc / l[i, i]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def rotation(q, r):
     """Body -> NED rotation matrix of the quaternion [w, x, y, z]."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -146,7 +151,7 @@ def rotation(q, r):
     r[2, 2] = 1.0 - 2.0 * (x * x + y * y)
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def add_cross(a, b, out):
     """out += a x b"""
     out[0] += a[1] * b[2] - a[2] * b[1]
@@ -154,7 +159,7 @@ def add_cross(a, b, out):
     out[2] += a[0] * b[1] - a[1] * b[0]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def factor(v, x, T, S):
     """Wing trig, M_vv, M_vs and the Cholesky factor of M_vv for state x: all
     that depends on the wing angles alone (RK4's two midpoint stages share it)."""
@@ -164,7 +169,7 @@ def factor(v, x, T, S):
     cholesky6(S[1], S[4])
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def velocity_of(v, x, sd, T, S, nu, factored=False):
     """nu = M_vv^-1 (h - M_vs s_dot), eq. (K3), for one vehicle's state x (17,)."""
     if not factored:
@@ -178,7 +183,7 @@ def velocity_of(v, x, sd, T, S, nu, factored=False):
     solve6(S[4], rhs, S[5], nu)
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def plates(v, cs, p, cen, nor):
     """Centroids and normals (5, 3) of the centre plate and the wings."""
     hw3 = p[v, P_HW] / 3.0
@@ -197,7 +202,7 @@ def plates(v, cs, p, cen, nor):
         nor[1 + i, 2] += c
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def centres(v, s, p, cen, rg, rb):
     """r_G and r_B from O: the wings' centroid offsets move both."""
     for k in range(3):
@@ -208,7 +213,7 @@ def centres(v, s, p, cen, rg, rb):
         rb[k] = (p[v, P_VFIRST + k] + p[v, P_VWING] * off) / p[v, P_VOLUME]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def water_at(opt, depth, out):
     """Current (NED) at a depth; zero when off."""
     if opt[O_CURRENT] > 0.0:
@@ -218,7 +223,7 @@ def water_at(opt, depth, out):
         out[:] = 0.0
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def derivative(v, x, sd, T, S, dx, factored=False):
     """dx/dt (17,) of one vehicle whose wings move at sd (4,); ``factored``:
     S already holds ``factor`` of these wing angles."""
@@ -286,7 +291,7 @@ def derivative(v, x, sd, T, S, dx, factored=False):
         dx[13 + i] = sd[i]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def _drag(v, cs, sd, V, W, r, water, p, cen, nor, vec, force, moment):
     """Plate-normal pressure drag at each centroid, skin friction, and the
     rotational drag of each plate about its in-plane axes."""
@@ -340,7 +345,7 @@ def _drag(v, cs, sd, V, W, r, water, p, cen, nor, vec, force, moment):
             moment[k] -= krot * mag * om[k]
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def contact_point(v, s, idx, p, out):
     """Contact point idx (0-3 plate corners, 4-7 wing tips), body frame."""
     h = p[v, P_HALF_SIDE]
@@ -357,7 +362,7 @@ def contact_point(v, s, idx, p, out):
         out[2] -= hw * math.sin(s[i])
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def _bottom(v, x, V, W, r, p, opt, vec, force, moment):
     """Spring-damper contact with Coulomb friction at every point below the bottom."""
     pt = vec[_PT]
@@ -387,7 +392,7 @@ def _bottom(v, x, V, W, r, p, opt, vec, force, moment):
         add_cross(pt, fb, moment)
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def servo_state(p, v, s0, cmd, t, s_out, sd_out):
     """Exact servo response a time t after s0 under a constant command:
     ramp at the rate limit while |error| > rate * tau, then first-order lag."""
@@ -408,7 +413,7 @@ def servo_state(p, v, s0, cmd, t, s_out, sd_out):
             sd_out[i] = e1 * decay / tau
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def servo_rate(p, v, s, cmd, out):
     """The servo model as an ODE: s_dot = clip((clip(cmd) - s) / tau, +-rate)."""
     for i in range(4):
@@ -418,7 +423,7 @@ def servo_rate(p, v, s, cmd, out):
         out[i] = min(max(rr, -lim), lim)
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def rk4_one(v, x, cmd, dt, T, S, ks, out):
     """One RK4 step of one vehicle, the servo solved exactly over the step.
     ks (4, 17) stage derivatives, ks scratch rows 4..8 hold y and servo data."""
@@ -432,18 +437,21 @@ def rk4_one(v, x, cmd, dt, T, S, ks, out):
     derivative(v, x, sd0, T, S, k1)
     for j in range(13):
         y[j] = x[j] + 0.5 * dt * k1[j]
-    y[13:17] = s_mid
+    for i in range(4):
+        y[13 + i] = s_mid[i]
     derivative(v, y, sd_mid, T, S, k2)
     for j in range(13):
         y[j] = x[j] + 0.5 * dt * k2[j]
     derivative(v, y, sd_mid, T, S, k3, True)   # same wing angles as stage 2
     for j in range(13):
         y[j] = x[j] + dt * k3[j]
-    y[13:17] = s_end
+    for i in range(4):
+        y[13 + i] = s_end[i]
     derivative(v, y, sd_end, T, S, k4)
     for j in range(13):
         out[j] = x[j] + dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-    out[13:17] = s_end
+    for i in range(4):
+        out[13 + i] = s_end[i]
     nq = math.sqrt(out[3] ** 2 + out[4] ** 2 + out[5] ** 2 + out[6] ** 2)
     for j in range(3, 7):
         out[j] /= nq
@@ -460,7 +468,7 @@ def rk4(x, cmd, dt, T, out):
         rk4_one(table_of(T, m), x[m], cmd[m], dt, T, S, ks, out[m])
 
 
-@njit(**_JIT)
+@njit(**_HOT)
 def record(v, x, cmd, T, S, sd, nu, out3):
     """Wing rates, velocities, IMU NED velocity (out3[0]) and pressure-port
     depth (out3[1, 0]) of one vehicle, for the recorded run."""
@@ -483,34 +491,59 @@ def record(v, x, cmd, T, S, sd, nu, out3):
     out3[1, 0] = x[2] + r[2, 0] * port[0] + r[2, 1] * port[1] + r[2, 2] * port[2]
 
 
-@njit(parallel=True, **_JIT)
 def advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth):
     """``rows * every`` RK4 steps of every vehicle with commands held,
     recording every ``every``-th step the state, wing rates, velocities, IMU
     NED velocity and sensor depth into xs[k], sds[k], nus[k], vimu[k],
     depth[k] (k = 1..rows; index 0 must hold the start). x is left at the
-    final state."""
+    final state. Runs on numba's threads (``numba.set_num_threads``)."""
+    _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, min(x.shape[0], numba.get_num_threads()))
+
+
+@njit(parallel=True, **_JIT)
+def _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, parts):
+    """``advance`` in ``parts`` contiguous shares of the vehicles, one a
+    thread, each with scratch of its own. A vehicle's arithmetic is the same
+    whichever thread runs it and nothing is summed across vehicles, so the
+    result does not depend on the number of threads. (The count comes from
+    the caller: a kernel that asks numba for it cannot be cached.)"""
     n = x.shape[0]
-    shared = T[0].shape[0] == 1
-    for m in prange(n):
-        v = np.int64(0) if shared else np.int64(m)
+    for b in prange(parts):
         S = _scratch()
         ks = np.empty((7, 17))
         out3 = np.empty((2, 3))
-        cur = xs[0, m].copy()
+        cur = np.empty(17)
         nxt = np.empty(17)
-        for k in range(1, rows + 1):
-            for _ in range(every):
-                rk4_one(v, cur, cmd[m], dt, T, S, ks, nxt)
-                cur[:] = nxt
-            xs[k, m, :] = cur
-            record(v, cur, cmd[m], T, S, sds[k, m], nus[k, m], out3)
-            vimu[k, m, :] = out3[0]
-            depth[k, m] = out3[1, 0]
-        x[m, :] = cur
+        for m in range(b * n // parts, (b + 1) * n // parts):
+            _advance_one(table_of(T, m), m, x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth,
+                         S, ks, out3, cur, nxt)
 
 
-@njit(**_JIT)
+@njit(**_HOT)
+def _advance_one(v, m, x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, S, ks, out3, cur, nxt):
+    """``advance`` for vehicle m in scratch the caller made. Compiled
+    without the runtime's reference counts: a view's count is an atomic
+    add on memory every thread shares (the tables, the command), which
+    cost a fifth of the time on one thread and more on two."""
+    c = cmd[m]
+    for j in range(17):
+        cur[j] = xs[0, m, j]
+    for k in range(1, rows + 1):
+        for _ in range(every):
+            rk4_one(v, cur, c, dt, T, S, ks, nxt)
+            for j in range(17):
+                cur[j] = nxt[j]
+        for j in range(17):
+            xs[k, m, j] = cur[j]
+        record(v, cur, c, T, S, sds[k, m], nus[k, m], out3)
+        for j in range(3):
+            vimu[k, m, j] = out3[0, j]
+        depth[k, m] = out3[1, 0]
+    for j in range(17):
+        x[m, j] = cur[j]
+
+
+@njit(**_HOT)
 def table_of(T, m):
     """Row of the tables for vehicle m: 0 when the batch shares one vehicle."""
     return 0 if T[0].shape[0] == 1 else m
