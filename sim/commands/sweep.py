@@ -81,7 +81,9 @@ def do_sweep(args: argparse.Namespace) -> None:
         S.check_points(base, parameters, points)
     except ValueError as exc:
         raise UsageError(str(exc))
-    vehicle = args.vehicle or "reference"
+    # the file's name, not its path: the digest of its numbers is what a
+    # resume must match, from whichever folder the command runs
+    vehicle = os.path.basename(args.vehicle) if args.vehicle else "reference"
     engine = C.engine_from_args(args)
     campaign = S.campaign(base, parameters, points, args.runs, seed=args.seed, depth=args.depth,
                           distance=args.distance, controller=args.controller, truth=args.truth,
@@ -102,7 +104,7 @@ def do_sweep(args: argparse.Namespace) -> None:
         outcome = C.run(campaign, engine, results=args.results, done=lambda index: bar[0].update(1),
                         notice=notice, started=started)
     stats = outcome.stats
-    result = {"vehicle": os.path.basename(vehicle) if args.vehicle else vehicle, "vehicle_file": args.vehicle,
+    result = {"vehicle": vehicle, "vehicle_file": args.vehicle,
               "water": args.water, "parameters": [p.spec() for p in parameters], "sampling": sampling,
               "sampling_size": levels if sampling == "grid" else args.lhs,
               "seed": args.seed, "runs_per_point": args.runs, "depth_m": args.depth, "distance_m": args.distance,
