@@ -180,6 +180,8 @@ def do_montecarlo(args: argparse.Namespace) -> None:
     from roboray.tools.jsonround import rounded
 
     check_target(args.distance, 0.0, args.depth, FlightSpec.start_depth)   # every bearing is as far
+    if args.workers is None and args.cluster is None:   # no process started for nothing to do
+        args.workers = min(args.runs, os.cpu_count() or 1)
     engine = C.engine_from_args(args)
     campaign = MC.campaign(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
                            controller=args.controller, truth=args.truth)
