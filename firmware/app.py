@@ -304,6 +304,9 @@ class Vehicle:
         self.resume = Resume(nav, modes, t, link.ep, self.params, scratch_of(m) if scratch_of else None,
                              record, cause, self.clock)
         print(self.resume.describe())
+        link.on_reboot = self.resume.mark_reboot
+        if self.resume.cause == "reboot":
+            fs.commanded_reset()
         # the flight log beside the parameters: /logs on the board
         files = LogFiles(self.store.fs, root=path[:path.rfind("/") + 1] + "logs")
         self.log = FlightLog(self.params, t, files, self.clock.ticks_us, self.clock.ticks_diff,
@@ -314,6 +317,10 @@ class Vehicle:
                   % (self.log.ring_kb, want))
         link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased, hidden=self.log.prepared)
         link.ep.on_text = self.log.msg
+        # the build, first thing on the link and in the log, as ArduPilot
+        # sends its version: a ground station sees which firmware it talks
+        # to, and that the board has (re)started
+        link.ep.send_text(6, banner())    # MAV_SEVERITY_INFO
 
     def build_loop(self, reset_cause=0):
         """The scheduler with the vehicle's nine tasks."""

@@ -29,7 +29,10 @@ offset  type   field
 0       u8     tag ``0xA2``: this format, version 2 (another tag is refused;
                version 1 had a DISARMED mode where this has the armed bit)
 1       u8     mode (bits 0-2, ``shared/modes.py`` number), target set
-               (bit 3), target depth set (bit 4), armed (bit 5)
+               (bit 3), target depth set (bit 4), armed (bit 5), a reboot
+               the ground asked for (bit 6: in the scratch words only,
+               written just before ``machine.reset()``, which the rp2
+               port reports as a watchdog reset)
 2       i16    target north, cm (+-327 m)
 4       i16    target east, cm
 6       u16    target depth, cm (0-655 m)
@@ -55,6 +58,7 @@ _FMT = "<BBhhHHIH"
 _HAS_TARGET = 0x08
 _HAS_DEPTH = 0x10
 _ARMED = 0x20
+_REBOOT = 0x40
 _P_MIN = 50000.0
 _BIAS_STEP = 0.0002
 _BIAS_MAX = 511
@@ -96,12 +100,14 @@ class DiveState:
         self.down = 0.0
         self.surface_pa = 101325.0
         self.bias = [0.0, 0.0, 0.0]
+        #: the reset that follows was asked for (a reboot command), not a lock-up
+        self.reboot = False
 
     def pack(self, buf=None):
         """The 16 bytes (into ``buf`` when given); ValueError on a bad field."""
         if not M.PASSIVE <= self.mode <= M.FAILSAFE:
             raise ValueError("dive state: mode %r" % (self.mode,))
-        flags = self.mode | (_ARMED if self.armed else 0)
+        flags = self.mode | (_ARMED if self.armed else 0) | (_REBOOT if self.reboot else 0)
         north = east = down = 0
         if self.has_target:
             flags |= _HAS_TARGET
@@ -129,6 +135,7 @@ class DiveState:
             return False
         self.mode = flags & 7
         self.armed = bool(flags & _ARMED)
+        self.reboot = bool(flags & _REBOOT)
         self.has_target = bool(flags & _HAS_TARGET)
         self.north = north * 0.01
         self.east = east * 0.01

@@ -478,6 +478,11 @@ class Failsafes:
             t.sensors_enabled = SENSORS_PRESENT
             t.sensors_health = h
 
+    def commanded_reset(self):
+        """The watchdog reset at boot was a reboot the ground asked for
+        (``Resume`` found the mark): no lock-up to report."""
+        self._lockup = False
+
     def on_arm(self):
         """Armed by the operator: a watchdog reset's report has been seen and
         a depth sensor caught lying has been looked at; forget both."""

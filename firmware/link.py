@@ -23,7 +23,10 @@ What the ground sends reaches the rest of the firmware through it:
 - arm, disarm and mode commands go to ``shared/modes.py`` (the endpoint's
   doing, through the arming and mode checks of ``firmware/failsafe.py``);
 - a reboot (PREFLIGHT_REBOOT_SHUTDOWN, refused while armed) saves the
-  parameters if they changed, lets the COMMAND_ACK leave and resets the
+  parameters if they changed, marks the reset as asked for (``on_reboot``:
+  the rp2 port's ``machine.reset()`` reads as a watchdog reset at the next
+  boot), lets the COMMAND_ACK leave the UART (``Radio.drained``: a reset
+  drops what the UART still holds, and the ACK was lost) and resets the
   board (``machine.reset()``).
 
 Signing (docs/design/signing.md): the key and the signing clock live in one
@@ -213,6 +216,9 @@ class Link:
         self._machine = machine
         self._clock = clock
         self.modes = modes
+        #: called just before a commanded reboot resets the board (the
+        #: application marks the reset as asked for: ``Resume.mark_reboot``)
+        self.on_reboot = None
         self.signing = Signing()
         path = store.path
         self.keeper = SigningKeeper(self.signing, FlashRecord(path[:path.rfind("/") + 1] + SIGNING_FILE, store.fs),
@@ -259,13 +265,15 @@ class Link:
     def reboot(self):
         """Save changed parameters, let the radio drain, reset the board."""
         self.ep.send_text(msg.MAV_SEVERITY_INFO, "rebooting")
+        if self.on_reboot is not None:
+            self.on_reboot()
         self.store.service()
         if self.signing.key is not None:
             self.keeper.save()
         radio = self.radio
         for _ in range(_FLUSH_TRIES):
             radio.service()
-            if not radio.queued():
+            if radio.drained():
                 break
             self._clock.sleep_ms(5)
         self._machine.reset()

@@ -146,6 +146,12 @@ class Resume:
         buf = self._buf
         if self.cause == "watchdog" and self.scratch is not None and s.unpack(self.scratch.read_into(buf)):
             self.source = "scratch"
+            if s.reboot:
+                # the ground's reboot, not a lock-up; the words lose the mark
+                # so a lock-up later in this run is reported as one
+                self.cause = "reboot"
+                s.reboot = False
+                self.scratch.write(s.pack(buf))
         elif self.record is not None:
             try:
                 data = self.record.load()
@@ -171,9 +177,23 @@ class Resume:
         if self.source is None:
             return "dive state: none kept"
         s = self.state
-        return "dive state from %s: %s%s%s" % (
+        return "dive state from %s: %s%s%s%s" % (
             self.source, M.NAMES[s.mode], "" if s.armed else ", disarmed",
-            ", waiting for the depth to resume" if self.pending else "")
+            ", waiting for the depth to resume" if self.pending else "",
+            " (rebooted on command)" if self.cause == "reboot" else "")
+
+    def mark_reboot(self):
+        """Just before a reboot the ground asked for: the scratch words say
+        so, and the next boot does not take the reset for a lock-up (the rp2
+        port's ``machine.reset()`` goes through the watchdog). Only the
+        scratch words: a power cut is no reboot."""
+        if self.scratch is None:
+            return
+        s = self.state
+        self._save_fields()
+        s.reboot = True
+        self.scratch.write(s.pack(self._buf))
+        s.reboot = False
 
     def _decide(self, now):
         nav = self.nav
@@ -200,7 +220,9 @@ class Resume:
 
     def _cause_text(self):
         c = self.cause
-        return "Watchdog reset" if c == "watchdog" else ("Power lost" if c == "power" else "Reset")
+        if c == "watchdog":
+            return "Watchdog reset"
+        return "Power lost" if c == "power" else ("Reboot" if c == "reboot" else "Reset")
 
     def _give_up(self, fmt):
         self.pending = False
@@ -276,6 +298,20 @@ class Resume:
 
     def _save(self):
         """The state now into the scratch words and on flash."""
+        buf = self._save_fields()
+        if self.scratch is not None:
+            self.scratch.write(buf)
+        if self.record is not None:
+            try:
+                self.record.save(bytes(buf))
+            except OSError as e:
+                self.save_errors += 1
+                self.last_error = str(e)
+                return
+        self.saves += 1
+
+    def _save_fields(self):
+        """The state now into ``state`` and packed into the buffer."""
         s = self.state
         s.mode = self.modes.mode
         s.armed = self.modes.armed
@@ -291,14 +327,4 @@ class Resume:
         sb[0] = b[0]
         sb[1] = b[1]
         sb[2] = b[2]
-        buf = s.pack(self._buf)
-        if self.scratch is not None:
-            self.scratch.write(buf)
-        if self.record is not None:
-            try:
-                self.record.save(bytes(buf))
-            except OSError as e:
-                self.save_errors += 1
-                self.last_error = str(e)
-                return
-        self.saves += 1
+        return s.pack(self._buf)

@@ -180,6 +180,7 @@ def _finite(o: Any) -> Any:
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 MAV_CMD_DO_SET_MODE = 176
 MAV_CMD_DO_REPOSITION = 192
+MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN = 246
 FORCE_ARM = 21196
 
 
@@ -205,6 +206,53 @@ def do_arm(args: argparse.Namespace) -> None:
 
 def do_disarm(args: argparse.Namespace) -> None:
     _arm_disarm(args, 0)
+
+
+def do_reboot(args: argparse.Namespace) -> None:
+    """PREFLIGHT_REBOOT_SHUTDOWN with param1 = 1, as MAVProxy's ``reboot``:
+    what only start-up reads (servo end points, the battery multiplier, the
+    compass and the board's orientation) takes effect. The vehicle saves its
+    parameters first and refuses while armed."""
+    from roboray.ground.link import LinkError
+
+    link = _connect(args)
+    try:
+        link.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (1,), timeout=args.ack_timeout, name="reboot")
+        back = None
+        if args.wait:
+            # the vehicle is back when it says which firmware it runs (its
+            # first STATUSTEXT after a start) or its boot clock (time_boot_ms
+            # of ATTITUDE, SYSTEM_TIME) starts again from near zero, and its
+            # heartbeat is heard after that; a silence alone says little (a
+            # restart can be shorter than a heartbeat's period)
+            start = time.monotonic()
+            end = start + args.wait
+            last_boot_ms = -1
+            restarted = False
+            while time.monotonic() < end:
+                try:
+                    m = link.recv(0.1)
+                except LinkError:
+                    m = None   # a USB radio that went away with the board's power
+                if m is None:
+                    continue
+                if m.get_type() == "STATUSTEXT" and m.text.startswith("RoboRay firmware"):
+                    restarted = True
+                boot_ms = getattr(m, "time_boot_ms", None)
+                if boot_ms is not None:
+                    if 0 <= boot_ms < last_boot_ms - 500:
+                        restarted = True
+                    last_boot_ms = boot_ms
+                if restarted and m.get_type() == "HEARTBEAT" and m.type != 6:
+                    back = time.monotonic() - start
+                    break
+            if back is None:
+                raise LinkError("reboot accepted, but the vehicle was not heard back within %g s (--wait): "
+                                "check its power and console" % args.wait)
+    finally:
+        link.close()
+    emit(args, {"command": "reboot", "result": "accepted", "back_after_s": back},
+         lambda r: "rebooting" + ("" if back is None else ": back after %.1f s" % back))
 
 
 def do_mode(args: argparse.Namespace) -> None:
@@ -969,6 +1017,14 @@ def build_parser():
         p.add_argument("--force", action="store_true", help=force)
         p.add_argument("--ack-timeout", **ack)
         add_json(p)
+
+    p = command(sub, "reboot", do_reboot, "restart the vehicle (disarmed only; it saves its parameters first), so "
+                "what it reads only at start-up takes effect")
+    _link_options(p)
+    p.add_argument("--wait", type=positive, default=None, metavar="S",
+                   help="wait up to S seconds for the vehicle to be heard again after its restart")
+    p.add_argument("--ack-timeout", **ack)
+    add_json(p)
 
     p = command(sub, "mode", do_mode, "switch flight mode (PASSIVE, ATTITUDE, VELOCITY, TARGET, FAILSAFE), "
                 "armed or not")

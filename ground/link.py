@@ -514,7 +514,10 @@ class Link:
             if ack is not None:
                 if ack.result != 0:
                     self.wait(lambda m: m.get_type() == "STATUSTEXT", 0.3)  # the reason follows the ack
-                    raise LinkError("%s refused: %s (%s)" % (name, self.reason(ack), RESULTS.get(ack.result, ack.result)))
+                    why = self.reason(ack)
+                    if why.startswith(name + " refused: "):   # the vehicle's text names the command too
+                        why = why[len(name) + 10:]
+                    raise LinkError("%s refused: %s (%s)" % (name, why, RESULTS.get(ack.result, ack.result)))
                 return ack
         hint = "the vehicle may require signing (--key)" if self.key is None else "check the signing key"
         raise LinkError("no COMMAND_ACK for %s from %s within %g s: %s" % (name, self.describe(), timeout, hint))

@@ -229,6 +229,9 @@ class PtyVehicle:
             self.error = exc
 
     def _on_request(self, text: str) -> str:
+        if text == "reboot":   # before the one-letter requests: it starts with "r"
+            self.reboots += 1
+            return ""
         op = text[:1]
         if op == "r":
             try:
@@ -249,9 +252,6 @@ class PtyVehicle:
             if self._stop.is_set():
                 return "q"
             select.select([self._master], [], [], self.tick_s)
-            return ""
-        if op == "reboot":
-            self.reboots += 1
             return ""
         return ""
 

@@ -511,3 +511,19 @@ def test_bad_link_values_are_usage_errors():
                         (("arm", "--ack-timeout", "0"), "argument --ack-timeout: '0' must be greater than 0")):
         r = ground(*args, "--master", "/dev/ttyNOPE0")
         assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and words in r.stderr, (args, r.stderr)
+
+
+def test_reboot_is_refused_armed_and_sent_disarmed(vehicle):
+    assert ground("arm", "--master", vehicle.device).returncode == 0
+    r = ground("reboot", "--master", vehicle.device)
+    assert r.returncode == 1
+    assert r.stderr.strip() == "roboray-ground: error: reboot refused: disarm first (failed)"
+    assert ground("disarm", "--master", vehicle.device).returncode == 0
+    before = vehicle.reboots
+    r = ground("reboot", "--master", vehicle.device, "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout) == {"command": "reboot", "result": "accepted", "back_after_s": None}
+    end = time.monotonic() + 5.0   # the vehicle's loop takes the request after its ACK left
+    while vehicle.reboots == before and time.monotonic() < end:
+        time.sleep(0.05)
+    assert vehicle.reboots == before + 1

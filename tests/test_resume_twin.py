@@ -82,3 +82,27 @@ def test_a_watchdog_reset_resumes_the_dive_on_micropython():
     assert r["resets"] == 1
     assert r["landing_error_m"] < 0.5, r["landing_error_m"]
     assert resumed(r, "Watchdog reset at")
+
+
+@pytest.mark.parametrize("interpreter", ["cpython", pytest.param("micropython", marks=pytest.mark.micropython)])
+def test_a_reboot_the_ground_asked_for_is_no_lockup(interpreter):
+    # The rp2 port's machine.reset() goes through the watchdog, so the next
+    # boot reads WDT_RESET; the firmware marks a commanded reboot in the
+    # scratch words first and the failsafes take it for what it is.
+    from roboray.sim.twin.ground import Action
+    r = fly(scenario="passive-drop", depth=2.0, duration=8.0, interpreter=interpreter,
+            operator=[Action(4.0, "reboot", label="reboot", max_tries=1)])
+    assert r["resets"] == 1
+    assert any(line.endswith("(rebooted on command)") for line in r["console"]), r["console"]
+    assert "watchdog reset" not in [f["name"] for f in r["failsafes"]]
+    # the firmware says which build it is at each start, to the ground too
+    banners = [t for t in texts(r) if t.startswith("RoboRay firmware")]
+    assert len(banners) == 2
+
+
+def test_a_lockup_after_a_commanded_reboot_is_a_lockup_again():
+    from roboray.sim.twin.ground import Action
+    r = fly("watchdog@6", scenario="passive-drop", depth=2.0, duration=12.0,
+            operator=[Action(3.0, "reboot", label="reboot", max_tries=1)])
+    assert r["resets"] == 2
+    assert [f["name"] for f in r["failsafes"]].count("watchdog reset") == 1

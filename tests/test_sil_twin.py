@@ -44,7 +44,9 @@ def test_a_target_landing_through_the_whole_stack_on_micropython(board, tmp_path
     assert r["arming"][1][0] <= r["modes"][1][0]
     assert r["failsafes"] == [] and r["task_errors"] == 0
     # the one text: the touchdown on the target (the mission's item 1, shared/mavlink/mission.py)
-    assert [text for _, _, text in r["statustext"]] == ["Reached target: mission item 1"]
+    texts = [text for _, _, text in r["statustext"]]
+    assert texts[0].startswith("RoboRay firmware ")   # the build, at start-up
+    assert texts[1:] == ["Reached target: mission item 1"]
     assert r["overruns"] == 0 and r["resets"] == 0
     assert [a["result"] for a in r["operator"]] == ["accepted"] * 3
     assert r["fixes_sent"] >= 25 and r["bad_frames_from_vehicle"] == 0
@@ -100,7 +102,8 @@ def test_ten_minutes_resting_on_the_bottom_raise_no_failsafe():
     r = run(Options(scenario="bottom-rest", interpreter="cpython"))
     assert r["landed"] and r["landed_at_s"] < 12.5
     assert r["duration_s"] - r["landed_at_s"] >= 597.0
-    assert r["failsafes"] == [] and r["statustext"] == []
+    assert r["failsafes"] == []
+    assert [t for _, _, t in r["statustext"]] == [r["firmware"]]   # the start-up banner, nothing else
     assert r["failsafe_flags_reported"] == 0
     assert [m for _, m in r["modes"]] == ["PASSIVE"] and [a for _, a in r["arming"]] == ["disarmed", "armed"]
     assert r["overruns"] == 0 and r["resets"] == 0 and r["task_errors"] == 0

@@ -131,6 +131,11 @@ class Radio:
         """Bytes waiting to go out (in the queue, beyond what the UART holds)."""
         return self._tx_n
 
+    def drained(self):
+        """True once every byte has left the TX pin: the queue empty and the
+        UART's own buffer sent (a reset drops what the UART still holds)."""
+        return not self._tx_n and self._uart.txdone()
+
     def service(self):
         """Scheduler task: push queued bytes out."""
         if self._tx_n:
