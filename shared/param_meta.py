@@ -162,7 +162,8 @@ _p("BARO1_GND_PRESS", "Surface pressure", "Pa",
    "Pressure at the surface the depth is measured from; set on arming at the surface.")
 for _axis in "XYZ":
     _p("COMPASS_OFS_" + _axis, "Compass offset %s" % _axis, "mGauss",
-       "Hard-iron offset of the magnetometer, chip %s." % _axis)
+       "Hard-iron offset of the magnetometer, body %s (after AHRS_ORIENTATION, as ArduPilot applies it)."
+       % _axis)
 for _axis in "XYZ":
     _p("COMPASS_DIA_" + _axis, "Compass soft-iron diagonal %s" % _axis, "",
        "Soft-iron matrix, diagonal %s." % _axis, user="Advanced")
