@@ -112,6 +112,29 @@ def test_a_killed_local_worker_loses_no_run(tmp_path, reference):
     assert rows == reference[1] and path.read_bytes() == reference[0]
 
 
+@pytest.mark.slow
+def test_ctrl_c_stops_the_workers_and_says_how_to_continue(tmp_path, reference):
+    path = tmp_path / "runs.csv"
+    proc = start(ARGS + ["--workers", "2", "--results", str(path)])
+    try:
+        wait_for_rows(proc, path, 1)
+        workers = psutil.Process(proc.pid).children(recursive=True)
+        os.killpg(proc.pid, signal.SIGINT)       # Ctrl-C reaches the whole foreground group
+        out, err = proc.communicate(timeout=120)
+    finally:
+        kill_group(proc)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted with" in err and "the same command continues" in err, err
+    psutil.wait_procs(workers, timeout=10)
+    assert not [w for w in workers if w.is_running() and w.status() != psutil.STATUS_ZOMBIE]
+    present = rows_in(path)
+    assert 1 <= present < RUNS
+    # mid-campaign, in the order the runs ended: each row as the uninterrupted run wrote it
+    lines = path.read_bytes().split(b"\n")
+    assert lines[:2] == reference[0].split(b"\n")[:2]
+    assert set(lines[2:2 + present]) <= set(reference[0].split(b"\n")[2:])
+
+
 def exit_of(capsys, argv) -> tuple[int, str]:
     """The command's exit status and its stderr, run here."""
     from roboray.sim import cli

@@ -63,10 +63,44 @@ def call(fn: Callable, index: int, task) -> tuple:
 
 
 def _worker_start() -> None:
-    # Ctrl-C reaches the whole process group: the parent stops the pool,
-    # the workers must not each print a traceback
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     single_thread()
+
+
+@contextlib.contextmanager
+def _environment(values: dict) -> Iterator[None]:
+    """``values`` in the environment for the processes started in the block."""
+    saved = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """Worker processes started in the block ignore Ctrl-C.
+
+    Ctrl-C reaches the whole process group: the command stops its workers
+    itself, and each must not print its own traceback meanwhile. A process
+    that starts with SIGINT ignored keeps it ignored (Python installs its
+    KeyboardInterrupt handler only over the default), including the
+    workers a Dask nanny starts again later."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class Engine:
@@ -146,20 +180,13 @@ class ProcessPool(Engine):
 
         # the children inherit the environment as it is when they start:
         # numpy's BLAS reads its thread count only at import
-        saved = {k: os.environ.get(k) for k in SINGLE_THREAD_ENV}
-        os.environ.update(SINGLE_THREAD_ENV)
-        try:
+        with _environment(SINGLE_THREAD_ENV), _sigint_ignored():
             pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
                                        initializer=_worker_start)
             # start every worker now, while the environment is set
-            for f in [pool.submit(os.getpid) for _ in range(self.workers)]:
-                f.result()
-        finally:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
+            started = [pool.submit(os.getpid) for _ in range(self.workers)]
+        for f in started:
+            f.result()
         return pool
 
     def start(self) -> None:
@@ -273,9 +300,11 @@ class DaskCluster(Engine):
             logging.getLogger(name).setLevel(logging.ERROR)
         if self.local:
             try:
-                self.cluster = distributed.LocalCluster(n_workers=self.workers, threads_per_worker=1,
-                                                        processes=True, host="127.0.0.1",
-                                                        dashboard_address="127.0.0.1:0")
+                # its workers' own log lines too: a Ctrl-C cancels their tasks, which they would report
+                with _sigint_ignored(), _environment({"DASK_LOGGING__DISTRIBUTED": "error"}):
+                    self.cluster = distributed.LocalCluster(n_workers=self.workers, threads_per_worker=1,
+                                                            processes=True, host="127.0.0.1",
+                                                            dashboard_address="127.0.0.1:0")
             except Exception as exc:  # noqa: BLE001 - whatever stops it, one line
                 raise EngineError("could not start a Dask LocalCluster of %d workers: %s" % (self.workers, exc))
             self.client = distributed.Client(self.cluster)
