@@ -18,14 +18,16 @@ def authority():
 
 def test_its_inputs_reach_the_body_only_through_a_millimetre_scale_reaction(authority):
     a = authority
-    # G_b's velocity rows: 1.6 mm of body displacement per radian of stroke,
-    # 1.2 mm over the whole +-45 deg travel: the thesis's "less than a millimetre"
+    # G_b's velocity rows: 1.6 mm of the plate centre's displacement per
+    # radian of stroke, 1.2 mm over the whole +-45 deg travel (linearised):
+    # the thesis's "less than a millimetre"
     assert a["reaction_displacement_m_per_rad"] == pytest.approx(-0.00156, abs=1e-4)
     assert a["reaction_displacement_max_m"] < 0.002
     # while the steady path, which its law never uses, glides 0.23 m/s per radian
     assert a["steady_glide_mps_per_rad"] == pytest.approx(0.234, abs=0.01)
     assert a["steady_force_n_per_rad"] == pytest.approx(0.425, abs=0.01)
-    # ... in the other direction: the reaction pushes away from the folded wing
+    # ... in the other direction: the reaction pushes the plate's centre away
+    # from the folded wing (its CG and CB go towards it: test_glide_check.py)
     assert a["steady_glide_towards_folded_wing"] and a["reaction_displacement_m_per_rad"] < 0.0
 
 

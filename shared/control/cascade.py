@@ -6,7 +6,7 @@ How it was designed from the model (numbers from ``roboray-sim trim``,
 
 - **Actuation.** The wings steer through the *steady* glide a
   configuration settles into, not through the reaction of moving them (the
-  thesis's controller, ``backstepping``: 1.6 mm per radian of stroke). A
+  thesis's controller, ``backstepping``: the plate's centre moves 1.6 mm per radian of stroke). A
   harmonic fold ``s_i = c + A cos(psi - a_i)`` at mean fold c = 45 deg
   glides towards its folded side at 0.073 glide ratio per 8 deg of
   asymmetry, up to 0.34 towards a wing and 0.49 between two, spinning under

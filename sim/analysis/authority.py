@@ -70,8 +70,10 @@ def authority(fold_deg: float = 45.0) -> dict:
             "folding wing 1 up and wing 3 down by delta pushes the body %.3f N/rad towards wing 1 at the fall's "
             "%.3f m/s (drag and CG) and settles into a glide of %.3f m/s per rad; the thesis's inputs act only "
             "through the added-mass reaction, %.5f m/s^2 per rad/s^2 (%.3f m/s^2 at the servos' %.0f rad/s^2, "
-            "only while the wing accelerates), which conserves momentum: a stroke moves the body %.2f mm per "
-            "radian, away from the folded wing, and nothing more (%.1f mm over the whole +-%.0f deg travel)"
+            "only while the wing accelerates), which conserves momentum: a stroke moves the plate's centre %.2f mm "
+            "per radian, away from the folded wing, and nothing more (%.1f mm over the whole +-%.0f deg travel, "
+            "linearised; the body also turns, so its CG and CB move towards the folded wing: roboray-sim "
+            "glide-check)"
             % (d_force[0], trim.descent_speed, v_per_rad, reaction[0], reaction[0] * accel_max, accel_max,
                reaction[0] * 1e3, abs(reaction[0]) * stroke * 1e3, math.degrees(stroke))),
     }
