@@ -123,3 +123,13 @@ def test_a_killed_dask_worker_loses_no_run(tmp_path, cluster, reference):
     rows = read_rows(str(path))[1]
     assert [r.pop("run") for r in rows] == list(range(RUNS)) and rows == reference[1]
     assert path.read_bytes() == reference[0]
+
+
+def test_a_local_cluster_prints_its_dashboard_and_gives_the_same_rows(tmp_path, reference):
+    path = tmp_path / "runs.csv"
+    r = subprocess.run(SIM + ARGS + ["--cluster", "local:2", "--results", str(path)], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "Dask LocalCluster of 2 workers, dashboard http://127.0.0.1:" in r.stderr, r.stderr
+    assert "Dask LocalCluster of 2 workers: %d runs" % RUNS in r.stdout
+    assert path.read_bytes() == reference[0]
