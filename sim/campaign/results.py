@@ -59,7 +59,11 @@ def format_value(value, kind: str) -> str:
         return str(int(value))
     if kind == "bool":
         return "true" if value else "false"
-    return str(value)
+    text = str(value)
+    if "\n" in text or "\r" in text:
+        # a row is one line: that is how a resume finds a torn one
+        raise ValueError("a row's string %r has a line break" % text[:40])
+    return text
 
 
 def parse_value(text: str, kind: str):
