@@ -500,6 +500,12 @@ def advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth):
     _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, min(x.shape[0], numba.get_num_threads()))
 
 
+def advance_from_cache() -> bool:
+    """Whether this process loaded the batch kernel from numba's disk cache
+    (else it compiled it, or has not called it yet)."""
+    return bool(_advance.stats.cache_hits)
+
+
 @njit(parallel=True, **_JIT)
 def _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, parts):
     """``advance`` in ``parts`` contiguous shares of the vehicles, one a

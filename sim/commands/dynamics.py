@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import time
 
 import numpy as np
 
 from roboray.sim import progress
-from roboray.tools.cli import CliError, add_json, command, emit, floats, number, output_file, positive
+from roboray.tools.cli import CliError, UsageError, add_json, command, emit, floats, number, output_file, positive
 
 
 # ------------------------------------------------------------ shared options
@@ -148,36 +149,86 @@ def write_csv(path: str, run) -> None:
 # ------------------------------------------------------------ bench
 #: Seconds of one core each part takes at dt 0.01 s: the progress bar's weights.
 COST_LOAD_S = 1.0           #: loading the compiled kernels
-COST_SINGLE_S = 5e-3        #: a simulated second of one vehicle
-COST_BATCH_S = 3e-3         #: a simulated second of a vehicle in a batch
+COST_SINGLE_S = 1.2e-3      #: a simulated second of one vehicle
+COST_BATCH_S = 5e-4         #: a simulated second of a vehicle in a batch, one core
+
+
+def threads(text: str) -> int:
+    """A whole number of threads, at least 1."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("--threads %r: not a whole number" % text)
+    if n < 1:
+        raise argparse.ArgumentTypeError("--threads %r: at least 1" % text)
+    return n
+
+
+def _batch_run(batch, xb, args, every: int, nthreads: int):
+    """One timed batch run on ``nthreads`` of numba's threads: the run and
+    the CPU seconds every thread of the process spent on it."""
+    import numba
+
+    from roboray.sim.simulate import simulate
+
+    numba.set_num_threads(nthreads)
+    cpu = time.process_time()
+    run = simulate(batch, xb, args.batch_duration, dt=args.dt, record_every=every)
+    return run, time.process_time() - cpu
 
 
 def do_bench_dynamics(args: argparse.Namespace) -> None:
+    import numba
+
+    from roboray.sim import kernels
     from roboray.sim.dynamics import Model, quat_from_axis_angle
     from roboray.sim.simulate import simulate
 
+    cap = numba.config.NUMBA_NUM_THREADS
+    nthreads = cap if args.threads is None else args.threads
+    if nthreads > cap:
+        raise UsageError("--threads %d: numba runs at most %d threads here (NUMBA_NUM_THREADS)" % (nthreads, cap))
+    if args.batch < 1:
+        raise UsageError("--batch %d: at least 1 vehicle" % args.batch)
+    counts = [1] if nthreads == 1 else [1, nthreads]
     dt = args.dt
     steps = 0.01 / dt
     single_cost = COST_SINGLE_S * args.duration * steps
-    batch_cost = COST_BATCH_S * args.batch * args.batch_duration * steps
-    with progress.bar(args, COST_LOAD_S + single_cost + batch_cost, "bench dynamics") as bar:
+    batch_cost = COST_BATCH_S * args.batch * args.batch_duration * steps * args.repeat
+    total = COST_LOAD_S + single_cost + sum(batch_cost / n for n in counts)
+    with progress.bar(args, total, "bench dynamics") as bar:
         single = Model(None)
         wings = np.radians([45.0, 30.0, 60.0, 20.0])
         x0 = single.state(attitude=quat_from_axis_angle([0, 1, 0], 0.17), velocity=(0.05, 0, 0.3), wings=wings)
-        t0 = time.perf_counter()
-        simulate(single, x0, 1.0, dt=dt)            # compile or load the kernels
-        warm = time.perf_counter() - t0
-        bar.update(COST_LOAD_S)
-        bar.set_postfix_str("one vehicle")
-        run = simulate(single, x0, args.duration, dt=dt)
-        bar.update(single_cost)
-        bar.set_postfix_str("a batch of %d" % args.batch)
         batch = Model(None, n=args.batch)
         xb = np.repeat(x0, args.batch, axis=0)
         every = max(1, int(round(args.batch_record / dt)))
+        # The first calls compile the kernels, or load them from numba's
+        # cache: timed apart, never in a figure.
+        t0 = time.perf_counter()
+        simulate(single, x0, 1.0, dt=dt)
         simulate(batch, xb, 2 * dt * every, dt=dt, record_every=every)
-        brun = simulate(batch, xb, args.batch_duration, dt=dt, record_every=every)
-        bar.update(batch_cost)
+        warm = time.perf_counter() - t0
+        cached = kernels.advance_from_cache()
+        bar.update(COST_LOAD_S)
+        bar.set_postfix_str("one vehicle")
+        numba.set_num_threads(1)
+        run = simulate(single, x0, args.duration, dt=dt)
+        bar.update(single_cost)
+        figures, finals = {}, {}
+        for n in counts:
+            bar.set_postfix_str("a batch of %d on %d thread%s" % (args.batch, n, "s" if n > 1 else ""))
+            _batch_run(batch, xb, args, every, n)        # the thread pool started and warm
+            rates, cpus = [], []
+            for _ in range(args.repeat):
+                brun, cpu = _batch_run(batch, xb, args, every, n)
+                rates.append(args.batch * args.batch_duration / brun.wall_time_s)
+                cpus.append(cpu / (args.batch * args.batch_duration))
+                bar.update(batch_cost / n / args.repeat)
+            figures[n] = (max(rates), float(np.median(rates)), min(cpus))
+            finals[n] = brun.x[-1]
+        numba.set_num_threads(cap)
+    best, median, cpu = figures[nthreads]
     result = {
         "integrator": "rk4 (servo solved exactly over each step)",
         "dt_s": dt,
@@ -186,10 +237,36 @@ def do_bench_dynamics(args: argparse.Namespace) -> None:
         "batch_size": args.batch,
         "batch_simulated_s": args.batch_duration,
         "batch_recorded_every_s": every * dt,
-        "vehicle_seconds_per_second": args.batch * args.batch_duration / brun.wall_time_s,
-        "first_call_s": warm,
+        "threads": nthreads,
+        "threading_layer": numba.threading_layer(),
+        "repeats": args.repeat,
+        "vehicle_seconds_per_second": best,
+        "vehicle_seconds_per_second_median": median,
+        "vehicle_seconds_per_second_1_thread": figures[1][0],
+        "vehicle_seconds_per_second_1_thread_median": figures[1][1],
+        "speedup": best / figures[1][0],
+        "cpu_us_per_vehicle_second": cpu * 1e6,
+        "identical_across_threads": all(np.array_equal(finals[1], f) for f in finals.values()),
+        "compile_s": warm,
+        "kernels_from_cache": cached,
+        "load_average_1min": os.getloadavg()[0],
     }
-    emit(args, result)
+
+    def text(r: dict) -> str:
+        return "\n".join([
+            "one vehicle: %.0fx real time" % r["real_time_factor"],
+            "batch of %d: %.0f vehicle-s/s on %d thread%s (median %.0f), %.0f on 1 (median %.0f): %.2fx" % (
+                r["batch_size"], r["vehicle_seconds_per_second"], r["threads"], "s" if r["threads"] > 1 else "",
+                r["vehicle_seconds_per_second_median"], r["vehicle_seconds_per_second_1_thread"],
+                r["vehicle_seconds_per_second_1_thread_median"], r["speedup"]),
+            "%.0f us of CPU a vehicle-second; %s threading layer; results identical across thread counts: %s" % (
+                r["cpu_us_per_vehicle_second"], r["threading_layer"], r["identical_across_threads"]),
+            "kernels %s in %.2f s (not in the figures); load average %.2f" % (
+                "loaded from cache" if r["kernels_from_cache"] else "compiled", r["compile_s"],
+                r["load_average_1min"]),
+        ])
+
+    emit(args, result, text)
 
 
 def register(sub, bench) -> None:
@@ -216,11 +293,16 @@ def register(sub, bench) -> None:
     add_vehicle_options(p)
     add_json(p)
 
-    p = command(bench, "dynamics", do_bench_dynamics, "speed of the dynamics: one vehicle and a batch")
+    p = command(bench, "dynamics", do_bench_dynamics,
+                "speed of the dynamics: one vehicle, and a batch on 1 and on N threads")
     p.add_argument("--dt", type=positive, default=0.01, help="integration step, s (default 0.01)")
     p.add_argument("--duration", type=positive, default=60.0, help="simulated seconds, one vehicle (default 60)")
     p.add_argument("--batch", type=int, default=1000, help="vehicles in the batch (default 1000)")
     p.add_argument("--batch-duration", type=positive, default=5.0, help="simulated seconds, batch (default 5)")
     p.add_argument("--batch-record", type=positive, default=0.1,
                    help="the batch keeps one state every this many seconds (default 0.1)")
+    p.add_argument("--threads", type=threads, metavar="N",
+                   help="threads for the batch (default: numba's, one a core); 1 thread is measured too")
+    p.add_argument("--repeat", type=int, default=3, metavar="K",
+                   help="timed batch runs on each thread count: the best and the median are reported (default 3)")
     add_json(p)
