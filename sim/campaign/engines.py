@@ -41,25 +41,33 @@ class EngineError(RuntimeError):
     """An engine that cannot start or cannot go on; one line for the user."""
 
 
-def single_thread() -> None:
-    """numba's thread pool to one thread in this process (the environment
-    reaches only processes started after it is set)."""
+def single_thread(threads: int = 1) -> int:
+    """numba's thread pool to ``threads`` in this process (the environment
+    reaches only processes started after it is set); the count it had."""
     try:
         import numba
 
-        if numba.get_num_threads() != 1:
-            numba.set_num_threads(1)
+        before = numba.get_num_threads()
+        if before != threads:
+            numba.set_num_threads(threads)
+        return before
     except (ImportError, ValueError):  # pragma: no cover - numba is a dependency
-        pass
+        return threads
 
 
 def call(fn: Callable, index: int, task) -> tuple:
-    """Run one task where the engine put it: ``(index, fn(task), cpu_s, wall_s)``."""
-    single_thread()
-    start = time.thread_time()
-    wall = time.perf_counter()
-    row = fn(task)
-    return index, row, time.thread_time() - start, time.perf_counter() - wall
+    """Run one task where the engine put it: ``(index, fn(task), cpu_s, wall_s)``.
+
+    The task runs on one thread; the thread count is given back after it
+    (this process may be the caller's, whose batches use every core)."""
+    before = single_thread()
+    try:
+        start = time.thread_time()
+        wall = time.perf_counter()
+        row = fn(task)
+        return index, row, time.thread_time() - start, time.perf_counter() - wall
+    finally:
+        single_thread(before)
 
 
 def _worker_start() -> None:
