@@ -497,7 +497,13 @@ def advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth):
     NED velocity and sensor depth into xs[k], sds[k], nus[k], vimu[k],
     depth[k] (k = 1..rows; index 0 must hold the start). x is left at the
     final state. Runs on numba's threads (``numba.set_num_threads``)."""
-    _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, min(x.shape[0], numba.get_num_threads()))
+    _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, shares(x.shape[0]))
+
+
+def shares(n: int) -> int:
+    """Into how many shares ``advance`` splits n vehicles: one a thread of
+    the caller's (``numba.get_num_threads``), never an empty one."""
+    return min(n, numba.get_num_threads())
 
 
 def advance_from_cache() -> bool:
