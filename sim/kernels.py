@@ -424,9 +424,11 @@ def servo_rate(p, v, s, cmd, out):
 
 
 @njit(**_HOT)
-def rk4_one(v, x, cmd, dt, T, S, ks, out):
+def rk4_one(v, x, cmd, dt, T, S, ks, out, factored=False):
     """One RK4 step of one vehicle, the servo solved exactly over the step.
-    ks (4, 17) stage derivatives, ks scratch rows 4..8 hold y and servo data."""
+    ks (4, 17) stage derivatives, ks scratch rows 4..8 hold y and servo data.
+    ``factored``: S holds ``factor`` of x's wing angles, as the previous
+    step's last stage leaves it (its wing angles are this step's first)."""
     p = T[5]
     k1, k2, k3, k4, y = ks[0], ks[1], ks[2], ks[3], ks[4]
     s_mid, sd_mid, s_end, sd_end, sd0 = ks[5, 0:4], ks[5, 4:8], ks[5, 8:12], ks[5, 12:16], ks[6, 0:4]
@@ -434,7 +436,7 @@ def rk4_one(v, x, cmd, dt, T, S, ks, out):
     servo_rate(p, v, s0, cmd, sd0)
     servo_state(p, v, s0, cmd, 0.5 * dt, s_mid, sd_mid)
     servo_state(p, v, s0, cmd, dt, s_end, sd_end)
-    derivative(v, x, sd0, T, S, k1)
+    derivative(v, x, sd0, T, S, k1, factored)
     for j in range(13):
         y[j] = x[j] + 0.5 * dt * k1[j]
     for i in range(4):
@@ -469,12 +471,13 @@ def rk4(x, cmd, dt, T, out):
 
 
 @njit(**_HOT)
-def record(v, x, cmd, T, S, sd, nu, out3):
+def record(v, x, cmd, T, S, sd, nu, out3, factored=False):
     """Wing rates, velocities, IMU NED velocity (out3[0]) and pressure-port
-    depth (out3[1, 0]) of one vehicle, for the recorded run."""
+    depth (out3[1, 0]) of one vehicle, for the recorded run (``factored``:
+    as in ``rk4_one``)."""
     p = T[5]
     servo_rate(p, v, x[13:17], cmd, sd)
-    velocity_of(v, x, sd, T, S, nu)
+    velocity_of(v, x, sd, T, S, nu, factored)
     r = S[7]
     rotation(x[3:7], r)
     vec = S[10]
@@ -540,14 +543,18 @@ def _advance_one(v, m, x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, S,
     c = cmd[m]
     for j in range(17):
         cur[j] = xs[0, m, j]
+    # A step ends with the inertia factored at its final wing angles, the
+    # next step's first: two factorisations a step, not three.
+    factored = False
     for k in range(1, rows + 1):
         for _ in range(every):
-            rk4_one(v, cur, c, dt, T, S, ks, nxt)
+            rk4_one(v, cur, c, dt, T, S, ks, nxt, factored)
+            factored = True
             for j in range(17):
                 cur[j] = nxt[j]
         for j in range(17):
             xs[k, m, j] = cur[j]
-        record(v, cur, c, T, S, sds[k, m], nus[k, m], out3)
+        record(v, cur, c, T, S, sds[k, m], nus[k, m], out3, True)
         for j in range(3):
             vimu[k, m, j] = out3[0, j]
         depth[k, m] = out3[1, 0]
