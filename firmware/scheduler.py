@@ -253,10 +253,13 @@ class Scheduler:
         """Run the tasks due in the current slot and collect; True if all went well."""
         if self._planned != self._n:
             self._build_plan()
-        return self._slot(self._clock.ticks_us())
+        t = self._clock.ticks_us()
+        return self._slot(t, t)
 
-    def _slot(self, start):
-        # run_slot() from a slot's start tick; leaves the tick of its end in _end_us
+    def _slot(self, start, grid):
+        # run_slot() from a slot's start tick and the grid's tick it was due
+        # at (a slot woken late has less room); leaves the tick of its end
+        # in _end_us
         clock = self._clock
         self.now_us = start
         self.now_ms = clock.ticks_ms()
@@ -284,8 +287,18 @@ class Scheduler:
                 self.deferred += 1
                 continue
             if b:
-                if (((t0 - start + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF) + b > self._limit_us and not held[i]:
-                    held[i] = 1
+                # the first time it does not fit it waits; held once, it
+                # runs if it ends within the slot at all or the slot is a
+                # planned stall already (lost anyway); held twice, it runs
+                # whatever is left (its bytes must not wait longer). Forced
+                # in at once, the radio ran after nav and the controller in
+                # a slot a collection's aftermath had made late, and overran
+                # it on the emulated Pico 2.
+                end = (((t0 - grid + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF) + b
+                h = held[i]
+                if end > self._limit_us and (h == 0 or (h == 1 and end > self.period_us
+                                                        and not self._expect_us)):
+                    held[i] = h + 1
                     self.deferred += 1
                     continue
                 held[i] = 0
@@ -373,7 +386,7 @@ class Scheduler:
         done = 0
         while self._running and done != cycles:
             start = clock.ticks_us()
-            ok = self._slot(start)
+            ok = self._slot(start, self._deadline)
             end = self._end_us
             work = ((end - start + _TICKS_HALF) & _TICKS_MAX) - _TICKS_HALF
             self.last_loop_us = work

@@ -44,7 +44,7 @@ def mp(board):
 
 def test_the_loop_runs_eight_tasks_and_the_estimator_settles_at_rest(mp):
     bench.build(mp, PARAMS)
-    assert mp.eval("v.sched.names") == ["nav", "control", "depth", "link", "leak", "battery", "params", "log", "gc"]
+    assert mp.eval("v.sched.names") == ["nav", "control", "depth", "leak", "battery", "params", "link", "log", "gc"]
     mp.exec("v.sched.run(1200)")
     assert mp.eval("v.nav.valid(0x30)") is True            # attitude and depth valid
     # 101800 Pa: the port 48.4 mm deep, the centre of buoyancy 23.1 mm above it

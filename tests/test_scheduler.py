@@ -241,6 +241,23 @@ def test_after_a_planned_stall_a_task_on_a_budget_still_waits_when_it_would_not_
     assert mp.eval("[s.overruns, s.stalls, s.skipped]") == [0, 1, 1]
 
 
+def test_a_held_task_on_a_budget_waits_once_more_rather_than_overrun_a_slot(mp):
+    # slot 0 is heavy (7 ms): the radio (3 ms budget) waits. Slot 1 is
+    # heavier still (8.5 ms, no stall announced): forced in, the radio would
+    # end it at 11.5 ms, an overrun; it waits once more and runs in slot 2
+    # (at 21 ms), forced there whatever is left
+    mp.exec("s = Scheduler(vclock, 10)\n"
+            "def work():\n"
+            "    vclock.advance((7000, 8500, 1000, 1000)[s.slot])\n"
+            "def radio():\n"
+            "    stamp()\n"
+            "    vclock.advance(3000)\n"
+            "s.add('work', work, 10)\ns.add('radio', radio, 10, budget_us=3000)\n"
+            "s.run(4)")
+    assert mp.eval("stamps()") == [21, 31]
+    assert mp.eval("[s.overruns, s.deferred]") == [0, 2]
+
+
 def test_a_collection_whose_slot_another_stall_skipped_runs_after_it(mp):
     # the collection is due at slot 4; slot 2 stalls 25 ms (a flash save),
     # so slots 3 and 4 are skipped and slot 5 runs light: the collection
