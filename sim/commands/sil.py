@@ -62,7 +62,7 @@ def _options(args: argparse.Namespace):
                    radio=args.radio, faults=list(args.fault or []), tlog=args.tlog, params=dict(args.param or []),
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
-                   board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", False),
+                   board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", None),
                    key=getattr(args, "key", None), linger=getattr(args, "linger", False),
                    board_fs=getattr(args, "board_fs", None))
 
@@ -381,9 +381,10 @@ def add_board_time_options(p) -> None:
     p.add_argument("--board-time", choices=BOARD_TIMES, default=None,
                    help="what code costs: auto (the default: counted instructions on rp2350-emu, the model "
                         "calibrated on it elsewhere), model, or free (time moves only when the firmware sleeps)")
-    p.add_argument("--romfs", action="store_true",
+    p.add_argument("--romfs", action=argparse.BooleanOptionalAction, default=None,
                    help="rp2350-emu: the board code in the Pico 2's ROMFS partition (bytecode run in place from "
-                        "flash, off the heap), as mpremote romfs deploy puts it, instead of /lib")
+                        "flash, off the heap), as roboray-flash deploy puts it on a Pico 2: the default; "
+                        "--no-romfs: in /lib")
 
 
 def register(sub, bench) -> None:
