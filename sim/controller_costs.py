@@ -44,15 +44,9 @@ def measure_steps(ctl, est, log, warm):
     return [nbytes, spent / max(1, len(log) - warm), [out[0], out[1], out[2], out[3]]]
 
 
-def mul_loop(n):
-    import time
-    a = 1.5
-    b = 2.5
-    t0 = time.ticks_us()
-    for i in range(n):
-        c = a * b
-    return time.ticks_diff(time.ticks_us(), t0) / n
 '''
+
+_MEASURE += E.MUL_LOOP
 
 
 def bench_log(name: str, steps: int, controller: str = "cascade", warm: int = 50) -> tuple[FlightSpec, list]:

@@ -5,19 +5,37 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-from typing import Iterator
+import os
+from typing import Callable, Iterator
+
+from roboray.tools.cli import output_file
 
 from roboray.sim.campaign.engines import Engine, make_engine, parse_cluster, stderr_notice
 
 
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
-    if value < 1:
-        raise argparse.ArgumentTypeError("%r must be at least 1" % text)
-    return value
+def at_least(minimum: int, why: str = "") -> Callable[[str], int]:
+    """An argparse type: a whole number >= ``minimum`` (``why`` says what a
+    smaller one would not be)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError("%r is not a whole number" % text)
+        if value < minimum:
+            raise argparse.ArgumentTypeError(why % text if why else "%r must be at least %d" % (text, minimum))
+        return value
+    return parse
+
+
+_count = at_least(1)
+
+
+def results_file(text: str) -> str:
+    """An argparse type: a results file a campaign can write, .csv or .parquet."""
+    path = output_file(text)
+    if os.path.splitext(path)[1].lower() not in (".csv", ".parquet"):
+        raise argparse.ArgumentTypeError("%s: a results file ends in .csv or .parquet" % text)
+    return path
 
 
 def _cluster(text: str) -> str:

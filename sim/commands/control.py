@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from roboray.sim import progress
-from roboray.sim.campaign.options import add_engine_options
+from roboray.sim.campaign.options import add_engine_options, at_least, results_file
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, floats, number, output_file, positive
 
 #: Heap bytes a cascade step may allocate on MicroPython (issue 7).
@@ -29,21 +29,7 @@ def _velocity(text: str) -> list[float]:
     return parts + [0.0] * (3 - len(parts))
 
 
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
-    if value < 1:
-        raise argparse.ArgumentTypeError("%r must be at least 1" % text)
-    return value
-
-
-def _results_file(text: str) -> str:
-    path = output_file(text)
-    if os.path.splitext(path)[1].lower() not in (".csv", ".parquet"):
-        raise argparse.ArgumentTypeError("%s: a results file ends in .csv or .parquet" % text)
-    return path
+_count = at_least(1)
 
 
 # ------------------------------------------------------------------ fly
@@ -449,7 +435,7 @@ def register(sub, bench) -> None:
     p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
                    help="cascade (the flight controller, the default) or backstepping (the thesis's, ch. 4)")
     p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
-    p.add_argument("--results", type=_results_file, metavar="FILE.csv|FILE.parquet",
+    p.add_argument("--results", type=results_file, metavar="FILE.csv|FILE.parquet",
                    help="one row a run (its drawn errors and outcomes), written as each lands, and the summary "
                         "beside it (FILE.summary.json); run again, the same command continues from the rows there")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the landing points around their targets")

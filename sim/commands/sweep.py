@@ -8,7 +8,7 @@ import contextlib
 import os
 
 from roboray.sim import progress
-from roboray.sim.campaign.options import add_engine_options
+from roboray.sim.campaign.options import add_engine_options, at_least, results_file
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, output_file, positive
 
 
@@ -25,31 +25,8 @@ def _parameter(text: str):
         raise argparse.ArgumentTypeError(str(exc))
 
 
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
-    if value < 2:
-        raise argparse.ArgumentTypeError("%r: at least 2 points are a sweep" % text)
-    return value
-
-
-def _runs(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("%r is not a whole number" % text)
-    if value < 1:
-        raise argparse.ArgumentTypeError("%r must be at least 1" % text)
-    return value
-
-
-def _results_file(text: str) -> str:
-    path = output_file(text)
-    if os.path.splitext(path)[1].lower() not in (".csv", ".parquet"):
-        raise argparse.ArgumentTypeError("%s: a results file ends in .csv or .parquet" % text)
-    return path
+_count = at_least(2, "%r: at least 2 points are a sweep")
+_runs = at_least(1)
 
 
 def do_sweep(args: argparse.Namespace) -> None:
@@ -185,7 +162,7 @@ def register(sub, bench) -> None:
                    help="grid step of each point's envelope search, deg (default %g, refined locally)"
                    % ENVELOPE_STEP_DEG)
     add_vehicle_options(p)
-    p.add_argument("--results", type=_results_file, metavar="FILE.csv|FILE.parquet",
+    p.add_argument("--results", type=results_file, metavar="FILE.csv|FILE.parquet",
                    help="one row a task (kind design or landing, the point's values, its trims or the landing), "
                         "written as each ends, and the summary beside it (FILE.summary.json); run again, the same "
                         "command continues from the rows there")
