@@ -49,6 +49,7 @@ _F, _M, _U, _FP, _OM, _WB, _WATER, _TMP, _RG, _RB, _PT, _VB, _VW = range(13)
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 _HOT = dict(_JIT, _nrt=False)
+_LEAF = dict(_HOT, inline="always")
 
 
 def scratch():
@@ -61,7 +62,7 @@ def scratch():
 _scratch = njit(**_JIT)(scratch)
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def _basis(c1, s1, out):
     """out[0..8] = 1, cos s, sin s, cos 2s, sin 2s, ..., sin 4s from c1 = cos s, s1 = sin s."""
     c2 = c1 * c1 - s1 * s1
@@ -77,7 +78,7 @@ def _basis(c1, s1, out):
     out[8] = 2.0 * s2 * c2
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def trig(s, cs):
     """cs[i] = (cos s_i, sin s_i): every use of the wing angles needs both."""
     for i in range(4):
@@ -85,7 +86,7 @@ def trig(s, cs):
         cs[i, 1] = math.sin(s[i])
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def inertia_into(v, cs, T, basis, mvv, mvs):
     """M_vv (6x6) and M_vs (6x4) of vehicle table v at wing angles whose
     cosines and sines are cs (4, 2). The index tables are unsigned: numba
@@ -107,7 +108,7 @@ def inertia_into(v, cs, T, basis, mvv, mvs):
         mvs[vs_at[t, 2], vs_at[t, 0]] += basis[vs_at[t, 0], vs_at[t, 1]] * vs_val[v, t]
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def cholesky6(a, l):
     """l l^T = a for symmetric positive definite a (6x6)."""
     for i in range(6):
@@ -121,7 +122,7 @@ def cholesky6(a, l):
                 l[i, j] = acc / l[j, j]
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def solve6(l, b, y, out):
     """Solve l l^T x = b; y (6,) is scratch."""
     for i in range(6):
@@ -136,7 +137,7 @@ def solve6(l, b, y, out):
         out[i] = acc / l[i, i]
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def rotation(q, r):
     """Body -> NED rotation matrix of the quaternion [w, x, y, z]."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -151,7 +152,7 @@ def rotation(q, r):
     r[2, 2] = 1.0 - 2.0 * (x * x + y * y)
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def add_cross(a, b, out):
     """out += a x b"""
     out[0] += a[1] * b[2] - a[2] * b[1]
@@ -159,7 +160,7 @@ def add_cross(a, b, out):
     out[2] += a[0] * b[1] - a[1] * b[0]
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def factor(v, x, T, S):
     """Wing trig, M_vv, M_vs and the Cholesky factor of M_vv for state x: all
     that depends on the wing angles alone (RK4's two midpoint stages share it)."""
@@ -169,7 +170,7 @@ def factor(v, x, T, S):
     cholesky6(S[1], S[4])
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def velocity_of(v, x, sd, T, S, nu, factored=False):
     """nu = M_vv^-1 (h - M_vs s_dot), eq. (K3), for one vehicle's state x (17,)."""
     if not factored:
@@ -183,7 +184,7 @@ def velocity_of(v, x, sd, T, S, nu, factored=False):
     solve6(S[4], rhs, S[5], nu)
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def plates(v, cs, p, cen, nor):
     """Centroids and normals (5, 3) of the centre plate and the wings."""
     hw3 = p[v, P_HW] / 3.0
@@ -202,7 +203,7 @@ def plates(v, cs, p, cen, nor):
         nor[1 + i, 2] += c
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def centres(v, s, p, cen, rg, rb):
     """r_G and r_B from O: the wings' centroid offsets move both."""
     for k in range(3):
@@ -213,7 +214,7 @@ def centres(v, s, p, cen, rg, rb):
         rb[k] = (p[v, P_VFIRST + k] + p[v, P_VWING] * off) / p[v, P_VOLUME]
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def water_at(opt, depth, out):
     """Current (NED) at a depth; zero when off."""
     if opt[O_CURRENT] > 0.0:
@@ -345,7 +346,7 @@ def _drag(v, cs, sd, V, W, r, water, p, cen, nor, vec, force, moment):
             moment[k] -= krot * mag * om[k]
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def contact_point(v, s, idx, p, out):
     """Contact point idx (0-3 plate corners, 4-7 wing tips), body frame."""
     h = p[v, P_HALF_SIDE]
@@ -392,7 +393,7 @@ def _bottom(v, x, V, W, r, p, opt, vec, force, moment):
         add_cross(pt, fb, moment)
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def servo_state(p, v, s0, cmd, t, s_out, sd_out):
     """Exact servo response a time t after s0 under a constant command:
     ramp at the rate limit while |error| > rate * tau, then first-order lag."""
@@ -413,7 +414,7 @@ def servo_state(p, v, s0, cmd, t, s_out, sd_out):
             sd_out[i] = e1 * decay / tau
 
 
-@njit(**_HOT)
+@njit(**_LEAF)
 def servo_rate(p, v, s, cmd, out):
     """The servo model as an ODE: s_dot = clip((clip(cmd) - s) / tau, +-rate)."""
     for i in range(4):
