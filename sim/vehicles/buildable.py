@@ -53,7 +53,9 @@ generators, ``python -m roboray.tools.gen_allocation --vehicle
 sim/vehicles/buildable.py`` and ``python -m roboray.tools.gen_plant
 --vehicle sim/vehicles/buildable.py`` (they overwrite the committed files;
 ``--out`` writes elsewhere), then ``roboray-flash``; with them the same run
-lands 0.015 m off. They differ where the vehicles do: its symmetric fall is
+lands 0.015 m off (measured before the parts list gained the logic
+regulator, switch, leak probe and penetrators, 2026-12-01; the committed
+tables' landing, 0.016 m, is the same after). They differ where the vehicles do: its symmetric fall is
 slower (0.29 m/s at 30 deg mean fold against 0.36) and its reach a little
 shorter (glide ratio 0.47 with two wings up against the reference's 0.49).
 Those are the main model's glides, which carry the added-mass (Munk) moment
@@ -111,9 +113,13 @@ def _at(x_mm, y_mm, h_mm):
     return (x_mm * _MM, y_mm * _MM, TOP - h_mm * _MM)
 
 
-BALLAST_BAR = (0.060, 0.012, 0.012)     # m, chosen: 60 mm cuts of 12 mm square steel bar, two of them
+# m, chosen: 45 mm cuts of 12 mm square steel bar, two of them (60 mm
+# before the logic supply, penetrators, switch and leak probe were listed:
+# the bars were shortened by their mass, so the vehicle weighs the same)
+BALLAST_BAR = (0.045, 0.012, 0.012)
 BALLAST_BAR_MASS = RHO_STEEL * BALLAST_BAR[0] * BALLAST_BAR[1] * BALLAST_BAR[2]  # part: geometry x density
 
+_PENETRATOR = "M10 potted cable penetrator with nut and O-ring"
 _REST = (
     ("battery cell 1", "Samsung INR18650-35E", 0.050, _at(-1.0, -9.3, 9.3), (0.06525, 0.01855, 0.01855),
      "part: Samsung SDI datasheet, 50.0 g max, 18.55 x 65.25 mm; lying on the plate"),
@@ -132,6 +138,25 @@ _REST = (
      "the ground's twin on a CP2102 USB adapter; above the water only (acrylic passes RF, water does not)"),
     ("deck and wiring", "1.6 mm perfboard 60 x 40 mm, leads, M3 screws, standoffs", 0.015, _at(0.0, 0.0, 16.0), None,
      "assumed: weigh yours"),
+    ("logic regulator", "Pololu D36V28F5 (5 V, 3.2 A step-down) and a Schottky diode", 0.0035,
+     _at(-14.0, -11.5, 29.0), (0.018, 0.020, 0.008),
+     "assumed: as the servo regulator, about 3.5 g; the Pico 2's VSYS takes 1.8-5.5 V (Raspberry Pi, Pico 2 "
+     "datasheet, 'Powering Pico'), so neither the pack nor the 6 V servo rail can feed it; the diode lets USB "
+     "and the pack be connected together, the datasheet's own arrangement"),
+    ("power switch", "Blue Robotics Switch (M10 penetrator, 10 A)", 0.010, _at(-37.0, 0.0, 10.0),
+     (0.010, 0.010, 0.020),
+     "assumed: about 10 g (weigh yours); through the plate opposite the Bar30, so the vehicle is switched on "
+     "sealed"),
+    ("leak probe", "Blue Robotics SOS Leak Sensor (board and one probe)", 0.005, _at(37.0, -11.0, 2.0),
+     (0.012, 0.008, 0.004),
+     "assumed: about 5 g; its probe on the plate, the lowest point inside the dome, where water collects; "
+     "read on GP15 (firmware/boards/pico2.py)"),
+    ("servo lead penetrator 1", _PENETRATOR, 0.004, _at(28.0, 24.0, 5.0), (0.012, 0.012, 0.010),
+     "assumed: about 4 g (weigh yours); one a servo lead, through the plate in a corner the cells and the "
+     "ballast bars leave free, just inside the dome's rim"),
+    ("servo lead penetrator 2", _PENETRATOR, 0.004, _at(-28.0, 24.0, 5.0), (0.012, 0.012, 0.010), "assumed: as 1"),
+    ("servo lead penetrator 3", _PENETRATOR, 0.004, _at(-28.0, -24.0, 5.0), (0.012, 0.012, 0.010), "assumed: as 1"),
+    ("servo lead penetrator 4", _PENETRATOR, 0.004, _at(28.0, -24.0, 5.0), (0.012, 0.012, 0.010), "assumed: as 1"),
     ("dome lip", "the dome's flange, 6 mm wide, 3 mm thick, with its O-ring and M3 screws",
      RHO_ACRYLIC * math.pi * (0.056 ** 2 - 0.050 ** 2) * 0.003 + 0.004, _at(0.0, 0.0, 1.5), None,
      "part: ring geometry x acrylic density, plus 4 g of screws (assumed); the model's dome is a bare hemisphere, "
@@ -141,10 +166,10 @@ _REST = (
 # Ballast bars either side of the cells, shifted so the dry parts' CG is on the axis.
 _SHIFT = tuple(-sum(p[2] * p[3][k] for p in _REST) / (2 * BALLAST_BAR_MASS) for k in (0, 1))
 PARTS = (
-    ("ballast bar 1", "steel S235, 12 mm square bar, 60 mm long", BALLAST_BAR_MASS,
+    ("ballast bar 1", "steel S235, 12 mm square bar, 45 mm long", BALLAST_BAR_MASS,
      (_SHIFT[0], -0.0246 + _SHIFT[1], TOP - 0.006), BALLAST_BAR,
      "part: geometry x density; chosen count (trim with washers in the water)"),
-    ("ballast bar 2", "steel S235, 12 mm square bar, 60 mm long", BALLAST_BAR_MASS,
+    ("ballast bar 2", "steel S235, 12 mm square bar, 45 mm long", BALLAST_BAR_MASS,
      (_SHIFT[0], 0.0246 + _SHIFT[1], TOP - 0.006), BALLAST_BAR, "part: as bar 1"),
 ) + _REST
 #: m, the IMU board's and the pressure port's positions from the parts table
