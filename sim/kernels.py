@@ -538,9 +538,9 @@ def _advance(x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, parts):
 @njit(**_HOT)
 def _advance_one(v, m, x, cmd, dt, rows, every, T, xs, sds, nus, vimu, depth, S, ks, out3, cur, nxt):
     """``advance`` for vehicle m in scratch the caller made. Compiled
-    without the runtime's reference counts: a view's count is an atomic
-    add on memory every thread shares (the tables, the command), which
-    cost a fifth of the time on one thread and more on two."""
+    without the runtime's reference counts: every view took an atomic
+    add on a count (of the tables, the command, the scratch), a sixth of
+    the batch's time."""
     c = cmd[m]
     for j in range(17):
         cur[j] = xs[0, m, j]
