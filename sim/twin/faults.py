@@ -27,8 +27,9 @@ name                        what happens
                             the slots it spans are missed and every sensor's last
                             sample is that old when the loop comes back
 ``overload[:US]``           every clock reading costs US microseconds (default 400):
-                            the loop overruns, and when it overruns for long enough
-                            the watchdog resets the board (which ends the overload)
+                            the loop overruns; one heavy enough that it overruns 25
+                            slots in a row (overload:3000 does) starves the watchdog,
+                            which resets the board (and ends the overload)
 ==========================  ==========================================================
 
 ``parse(text)`` checks a fault and returns a ``Fault``; a bad one is a
