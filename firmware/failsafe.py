@@ -169,7 +169,7 @@ _ALL_VALID = nv.ATTITUDE_VALID | nv.DEPTH_VALID | nv.POSITION_VALID
 # make the failsafe flap.
 _NO_HOLD = (1 << LINK) | (1 << LEAK) | (1 << LOCKUP)
 # Conditions read from a driver's health, confirmed over SENSOR_CONFIRM_MS.
-_SENSORS = (1 << DEPTH) | (1 << IMU) | (1 << COMPASS) | (1 << BATT_MONITOR)
+_SENSORS = (DEPTH, IMU, COMPASS, BATT_MONITOR)
 _ARM_BLOCKERS = (1 << LEAK) | (1 << IMU) | (1 << DEPTH) | (1 << COMPASS) | (1 << BATTERY) | (1 << BATT_MONITOR)
 
 _PREARM_DEPTH = "PreArm: no depth estimate yet"
@@ -335,10 +335,8 @@ class Failsafes:
         """``c`` with each sensor's bit kept only once it has been set for
         SENSOR_CONFIRM_MS in a row (a stall's aftermath is not a fault)."""
         bad = self._bad_ms
-        for i in range(COUNT):
+        for i in _SENSORS:
             bit = 1 << i
-            if not _SENSORS & bit:
-                continue
             if c & bit:
                 if bad[i] < 0:
                     bad[i] = now

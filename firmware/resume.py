@@ -190,9 +190,8 @@ class Resume:
         if self.scratch is None:
             return
         s = self.state
-        self._save_fields()
         s.reboot = True
-        self.scratch.write(s.pack(self._buf))
+        self.scratch.write(self._save_fields())
         s.reboot = False
 
     def _decide(self, now):

@@ -32,6 +32,15 @@ def _velocity(text: str) -> list[float]:
 _count = at_least(1)
 
 
+def add_landing_options(p: argparse.ArgumentParser) -> None:
+    """The Monte Carlo landing's own options (montecarlo, sweep)."""
+    p.add_argument("--depth", type=positive, default=10.0, help="bottom depth, m (default 10)")
+    p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
+    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
+                   help="cascade (the flight controller, the default) or backstepping (the thesis's, ch. 4)")
+    p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
+
+
 # ------------------------------------------------------------------ fly
 def do_fly(args: argparse.Namespace) -> None:
     from roboray.sim.flight import FlightSpec, fly
@@ -430,11 +439,7 @@ def register(sub, bench) -> None:
     p.add_argument("--runs", type=_count, default=100, help="number of flights (default 100)")
     add_engine_options(p, "flights")
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
-    p.add_argument("--depth", type=positive, default=10.0, help="bottom depth, m (default 10)")
-    p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
-    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
-                   help="cascade (the flight controller, the default) or backstepping (the thesis's, ch. 4)")
-    p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
+    add_landing_options(p)
     p.add_argument("--results", type=results_file, metavar="FILE.csv|FILE.parquet",
                    help="one row a run (its drawn errors and outcomes), written as each lands, and the summary "
                         "beside it (FILE.summary.json); run again, the same command continues from the rows there")

@@ -9,6 +9,7 @@ import os
 
 from roboray.sim import progress
 from roboray.sim.campaign.options import add_engine_options, at_least, results_file
+from roboray.sim.commands.control import add_landing_options
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, output_file, positive
 
 
@@ -153,11 +154,7 @@ def register(sub, bench) -> None:
     p.add_argument("--runs", type=_runs, default=20, help="Monte Carlo landings per point (default 20)")
     add_engine_options(p, "design points and landings")
     p.add_argument("--seed", type=int, default=0, help="seed of the Latin hypercube and the draws (default 0)")
-    p.add_argument("--depth", type=positive, default=10.0, help="bottom depth, m (default 10)")
-    p.add_argument("--distance", type=positive, default=2.0, help="target distance from the release, m (default 2)")
-    p.add_argument("--controller", choices=("cascade", "backstepping"), default="cascade",
-                   help="cascade (the flight controller, the default) or backstepping (the thesis's, ch. 4)")
-    p.add_argument("--truth", action="store_true", help="true states instead of the estimator's")
+    add_landing_options(p)
     p.add_argument("--envelope-step", type=positive, default=ENVELOPE_STEP_DEG, metavar="DEG",
                    help="grid step of each point's envelope search, deg (default %g, refined locally)"
                    % ENVELOPE_STEP_DEG)
