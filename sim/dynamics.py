@@ -250,6 +250,7 @@ class Model:
             row[kernels.P_VFIRST:kernels.P_VFIRST + 3] = sum(l.volume * l.volume_centroid for l in v.lumps)
             row[kernels.P_IMU:kernels.P_IMU + 3] = p.imu_position
             row[kernels.P_PORT:kernels.P_PORT + 3] = p.pressure_port
+            row[kernels.P_MUNK] = p.munk_scale
             rows.append(row)
         self.C0 = np.ascontiguousarray(c0)      # (V, 36)
         self.Cvv = np.ascontiguousarray(cvv)    # (V, 36, 36)

@@ -32,7 +32,8 @@ from numba import njit, prange
 P_MASS, P_RHO, P_G, P_CD, P_CF, P_VOLUME, P_TAU, P_RATE, P_SMIN, P_SMAX = range(10)
 P_HW, P_MWING, P_VWING, P_AREA_C, P_AREA_W, P_KROT_C, P_KROT_W, P_HALF_SIDE = range(10, 18)
 P_MFIRST, P_VFIRST, P_IMU, P_PORT = 18, 21, 24, 27   # 3 each
-NP = 30
+P_MUNK = 30   # scale of the added-mass (Munk) moment of translation, 1 = the full Kirchhoff term
+NP = 31
 # Entries of opt
 O_GRAVITY, O_DRAG, O_CURRENT, O_CUR_V, O_CUR_SHEAR = 0, 1, 2, 3, 6   # 3 each for the last two
 O_BOTTOM, O_DEPTH, O_STIFF, O_DAMP, O_MU, O_SLIP = 9, 10, 11, 12, 13, 14
@@ -295,6 +296,17 @@ def derivative(v, x, sd, T, S, dx, factored=False):
     add_cross(x[7:10], W, dx[7:10])       # p x Omega
     add_cross(x[10:13], W, dx[10:13])     # pi x Omega
     add_cross(x[7:10], V, dx[10:13])      # p x V
+    k = p[v, P_MUNK]
+    if k != 1.0:
+        # p x V holds the Munk moment (A V) x V, A the added mass of
+        # translation (docs/design/glide-check.md, (G6)); the upper-left
+        # block of M_vv is m I + A and m V x V = 0, so (M_tt V) x V is that
+        # moment alone, and (k - 1) times it leaves k of it.
+        mvv = S[1]
+        u = vec[_TMP]
+        for a in range(3):
+            u[a] = (k - 1.0) * (mvv[a, 0] * V[0] + mvv[a, 1] * V[1] + mvv[a, 2] * V[2])
+        add_cross(u, V, dx[10:13])
     for i in range(4):
         dx[13 + i] = sd[i]
 

@@ -83,6 +83,12 @@ class VehicleParams:
     imu_position: tuple  #: m, in the dome
     pressure_port: tuple  #: m, on the plate's top face
 
+    # Model switch: the added-mass (Munk) moment of translation, (A V) x V,
+    # scaled (1: the Kirchhoff equations' own term; 0: the plate-drag model
+    # without it, docs/design/glide-check.md). Which one the water obeys is
+    # for a dive's log to say (``roboray-sim identify``).
+    munk_scale: float = 1.0  #: -, 0..1
+
     def problems(self) -> list[str]:
         """What makes these inputs unusable (empty when none): every field a
         finite number, positions three of them, and the signs physics needs."""
@@ -114,7 +120,7 @@ class VehicleParams:
 _POSITIVE = frozenset(("rho", "g", "plate_side", "wing_height", "thickness", "plate_density", "wing_density",
                        "dome_radius", "dome_shell_thickness", "dome_density", "total_mass", "payload_radius",
                        "payload_thickness", "servo_tau", "servo_rate"))
-_NON_NEGATIVE = frozenset(("cd", "cf", "servo_mass", "servo_volume", "servo_height"))
+_NON_NEGATIVE = frozenset(("cd", "cf", "servo_mass", "servo_volume", "servo_height", "munk_scale"))
 
 
 def _finite_number(x) -> bool:
