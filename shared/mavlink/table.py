@@ -38,6 +38,7 @@ TABLE = {
     46: ("MISSION_ITEM_REACHED", 11, 2, 2, _m.MISSION_ITEM_REACHED_FMT, ("seq",), (0,)),
     47: ("MISSION_ACK", 153, 3, 4, _m.MISSION_ACK_FMT, ("target_system", "target_component", "type", "mission_type",), (0, 0, 0, 0,)),
     51: ("MISSION_REQUEST_INT", 196, 4, 5, _m.MISSION_REQUEST_INT_FMT, ("seq", "target_system", "target_component", "mission_type",), (0, 0, 0, 0,)),
+    64: ("LOCAL_POSITION_NED_COV", 191, 225, 225, _m.LOCAL_POSITION_NED_COV_FMT, ("time_usec", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az", "covariance", "estimator_type",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 45, 0,)),
     66: ("REQUEST_DATA_STREAM", 148, 6, 6, _m.REQUEST_DATA_STREAM_FMT, ("req_message_rate", "target_system", "target_component", "req_stream_id", "start_stop",), (0, 0, 0, 0, 0,)),
     73: ("MISSION_ITEM_INT", 38, 37, 38, _m.MISSION_ITEM_INT_FMT, ("param1", "param2", "param3", "param4", "x", "y", "z", "seq", "command", "target_system", "target_component", "frame", "current", "autocontinue", "mission_type",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
     75: ("COMMAND_INT", 158, 35, 35, _m.COMMAND_INT_FMT, ("param1", "param2", "param3", "param4", "x", "y", "z", "command", "target_system", "target_component", "frame", "current", "autocontinue",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
