@@ -15,6 +15,7 @@ import argparse
 import logging
 import sys
 
+from roboray.sim.campaign.options import seed
 from roboray.tools.cli import CliError, UsageError, add_json, check_target, command, emit, floats, output_file, positive
 
 log = logging.getLogger("roboray.sim.sil")
@@ -64,7 +65,9 @@ def _options(args: argparse.Namespace):
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
                    board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", None),
                    key=getattr(args, "key", None), linger=getattr(args, "linger", False),
-                   board_fs=getattr(args, "board_fs", None))
+                   board_fs=getattr(args, "board_fs", None), radio_model=getattr(args, "radio_model", None),
+                   conductivity=getattr(args, "conductivity", None),
+                   ground_distance=getattr(args, "ground_distance", None))
 
 
 def _twin(args: argparse.Namespace, **kwargs):
@@ -161,6 +164,22 @@ def _timeline(r: dict) -> str:
     return ", ".join("%s at %.2f s" % (what, t) for t, _, what in out)
 
 
+def _link_line(r: dict) -> str:
+    """The radio link through the water: where it went and came back."""
+    head = "radio link (%s, %g S/m water, reach %.2f m): " % (r["radio_model"], r["water_conductivity_s_per_m"],
+                                                             r["radio_reach_m"])
+    if not r["link_events"]:
+        return head + "held all the way; %d fixes used" % r["fixes_used"]
+    parts = []
+    for e in r["link_events"]:
+        if e["event"] == "lost":
+            parts.append("lost below %.2f m at %.2f s" % (e["depth_m"], e["t"]))
+        else:
+            parts.append("back at %.2f m at %.2f s" % (e["depth_m"], e["t"]))
+    return head + ", ".join(parts) + "; %.1f s without it, %d fixes used" % (r["time_without_link_s"],
+                                                                            r["fixes_used"])
+
+
 def do_sil(args: argparse.Namespace) -> None:
     import math
 
@@ -203,6 +222,8 @@ def do_sil(args: argparse.Namespace) -> None:
             lines.append("failsafes: " + ", ".join("%s at %.2f s" % (f["name"], f["t"]) for f in r["failsafes"]))
         else:
             lines.append("failsafes: none")
+        if r.get("radio_model") is not None:
+            lines.append(_link_line(r))
         for t, sev, msg in r["statustext"]:
             lines.append("  STATUSTEXT %.2f s: %s" % (t, msg))
         bt = r["board_time"]
@@ -387,6 +408,16 @@ def add_board_time_options(p) -> None:
                         "--no-romfs: in /lib")
 
 
+def _board_folder(text: str) -> str:
+    """An argparse type: a folder for the board's flash, new or existing
+    (a file of that name raised from deep inside the run's end)."""
+    import os
+
+    if os.path.exists(text) and not os.path.isdir(text):
+        raise argparse.ArgumentTypeError("%s exists and is not a folder" % text)
+    return text
+
+
 def register(sub, bench) -> None:
     from roboray.sim.commands.dynamics import add_vehicle_options
     from roboray.sim.twin import faults, scenarios
@@ -406,7 +437,7 @@ def register(sub, bench) -> None:
                    help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr), to a "
                         "ground station listening on UDP PORT (udp:HOST:PORT elsewhere; roboray-ground --master "
                         "udp:PORT), or listen on TCP PORT as ArduPilot's SITL does (--master tcp:127.0.0.1:PORT)")
-    p.add_argument("--board-fs", metavar="DIR",
+    p.add_argument("--board-fs", type=_board_folder, metavar="DIR",
                    help="keep the board's flash in DIR after the run: parameters, dive state and the flight logs "
                         "(DIR/logs/00000001.BIN, read with roboray-ground log plot or mavlogdump.py); a run that "
                         "ends after landing lasts 10 s longer, for the log to reach flash once the vehicle rests")
@@ -428,7 +459,7 @@ def register(sub, bench) -> None:
                    help="MAVLink 2 signing: the vehicle's key on its flash before boot (as SETUP_SIGNING puts it) "
                         "and the scripted ground signs with it (MAVProxy's key from PASSPHRASE)")
     p.add_argument("--tlog", type=output_file, metavar="FILE", help="record the link both ways (MAVProxy's tlog, virtual time)")
-    p.add_argument("--seed", type=int, default=0, help="seeds every random stream (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="seeds every random stream (default 0)")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the track, depth, wings and the firmware's modes")
     p.add_argument("--depth", type=positive, help="tank bottom, m (default: the scenario's)")
     p.add_argument("--target", type=lambda s: floats(s, 2, "--target"), metavar="NORTH,EAST",
@@ -438,12 +469,17 @@ def register(sub, bench) -> None:
     p.add_argument("--param", type=param, action="append", metavar="NAME=VALUE",
                    help="a parameter the board boots with (repeatable)")
     add_vehicle_options(p)
+    from roboray.sim.commands.radio import add_link_options
+    from roboray.sim.radio.radios import vehicle_radio
+
+    add_link_options(p)
+    p.set_defaults(radio_model=vehicle_radio())
     add_json(p)
 
     p = command(bench, "sil", do_bench_sil, "speed of the twin: the passive drop and where a frame's time goes")
     p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython",
                    help="the interpreter the firmware runs on, as for sil (default micropython)")
-    p.add_argument("--seed", type=int, default=0, help="seeds every random stream of the drop (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="seeds every random stream of the drop (default 0)")
     p.add_argument("--duration", type=positive, default=None, help="cut the drop short, simulated s")
     p.add_argument("--repeat", type=int, default=1,
                    help="run the drop N times and report the median run (the machine's load varies)")

@@ -97,6 +97,7 @@ class Seen:
     attitudes: list = field(default_factory=list)      # (t, roll, pitch, yaw)
     params: dict = field(default_factory=dict)         # name -> (t, value)
     acks: list = field(default_factory=list)           # (t, command, result)
+    radio_status: list = field(default_factory=list)   # (t, rssi, remrssi, noise, rxerrors): the ground's radio
     frames: int = 0
     bad: int = 0
 
@@ -140,6 +141,9 @@ class Ground:
                 m.signing.link_id = 0
                 m.signing.timestamp = SIGNING_TS0
             self.mav.signing.sign_outgoing = True
+            # the radio's own RADIO_STATUS is never signed (MAVProxy's and
+            # ArduPilot's accept list)
+            self._rx.signing.allow_unsigned_callback = lambda mav, msg_id: msg_id == mavlink.MAVLINK_MSG_ID_RADIO_STATUS
 
     # ------------------------------------------------------------ bytes
     def _log(self, frame: bytes, t: float) -> None:
@@ -200,6 +204,8 @@ class Ground:
             s.positions.append((t, m.x, m.y, m.z, m.vx, m.vy, m.vz))
         elif kind == "ATTITUDE":
             s.attitudes.append((t, m.roll, m.pitch, m.yaw))
+        elif kind == "RADIO_STATUS":
+            s.radio_status.append((t, m.rssi, m.remrssi, m.noise, m.rxerrors))
         elif kind == "PARAM_VALUE":
             s.params[m.param_id] = (t, m.param_value)
             for a in self.script:

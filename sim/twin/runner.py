@@ -116,6 +116,14 @@ class Options:
     duration: Optional[float] = None
     vehicle: Optional[str] = None
     water: str = "fresh"
+    #: The radio whose link crosses the water (``sim/radio/radios.py``:
+    #: sik-433, sik-915, hc12-433); None: no water model, the link reaches
+    #: at any depth (``sil``'s default is the buildable vehicle's radio)
+    radio_model: Optional[str] = None
+    #: S/m, overriding ``water``'s conductivity (with ``radio_model``)
+    conductivity: Optional[float] = None
+    #: m of air from the ground antenna to the point above the vehicle
+    ground_distance: Optional[float] = None
     #: More operator actions (``ground.Action``), besides the scenario's.
     operator: list = field(default_factory=list)
     #: The board's clock (MHz): compute time scales with 150 / cpu_mhz.
@@ -544,6 +552,14 @@ class Twin:
         self.key = key_from_passphrase(options.key) if options.key is not None else None
         self.ground = Ground(script + list(options.operator), self._tlog, heartbeats=self.radio is None, key=self.key)
         self._rng_air = np.random.default_rng([options.seed, 15])
+        self.water_link = None
+        if options.radio_model is not None:
+            from roboray.sim.radio import link as link_mod
+            from roboray.sim.twin.water_link import WaterLink
+
+            lk = link_mod.make(options.radio_model, options.water, options.conductivity,
+                               options.ground_distance or link_mod.GROUND_DISTANCE_M)
+            self.water_link = WaterLink(lk, options.seed)
         self.radio_loss = False
         self.radio_corrupt = 0.0
         self._pending: Optional[list] = None
@@ -655,8 +671,15 @@ class Twin:
         g.t = t
         events: list = []
         self._faults(t, events)
+        wl = self.water_link
+        status_up = status_down = b""
+        if wl is not None:
+            wl.step(t, self.world.antenna_depth(), FRAME_US * 1e-6)
+            status_up, status_down = wl.statuses()
+            if not wl.crosses(sent, 0):
+                sent = b""
         # vehicle -> air -> ground (and a person's ground station)
-        up = self._air(sent)
+        up = self._air(sent) + status_up
         self.bytes_up += len(up)
         g.receive(up)
         if self.radio is not None and up:
@@ -666,14 +689,21 @@ class Twin:
             a = next((a for a in g.script if a.label == self._release_label), None)
             if a is not None and a.done and a.done_at is not None and t >= a.done_at + scenarios.RELEASE_DELAY_S:
                 self.world.release()
+        fixes = g.fixes_sent
         g.tick(t, self.world.arrived_fixes())
+        fixes = g.fixes_sent - fixes
         down = g.take()
         if self.radio is not None:
             for frame in self._framer.feed(self.radio.read()):
                 if frame[:1] in (b"\xfd", b"\xfe"):   # noise between frames crosses, but is no tlog record
                     g.record_uplink([frame])
                 down += frame
-        down = self._air(down)
+        if wl is not None:
+            if wl.crosses(down, 1):
+                wl.fixes_used += fixes if not self.radio_loss else 0
+            else:
+                down = b""
+        down = self._air(down) + status_down
         self.bytes_down += len(down)
         row0 = self.world.start_row() if first else self._pending
         w0 = time.perf_counter()
@@ -968,6 +998,8 @@ class Twin:
         if s.velocity is not None:
             report["velocity_set_point"] = list(s.velocity)
             report.update(self._velocity_error())
+        if self.water_link is not None:
+            report.update(self.water_link.report(w.t))
         if self.options.tlog:
             report["tlog"] = self.options.tlog
         if lingered is not None:

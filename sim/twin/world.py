@@ -436,6 +436,16 @@ class World:
             out.sort()
         return out
 
+    def antenna_depth(self) -> float:
+        """Depth (m, down) of the radio's antenna: the dome's top, the
+        highest point of the dry parts (the radio sits under it)."""
+        x = self.x[0]
+        w, a, b = x[3], x[4], x[5]
+        # body z of the dome's top (z down: above the plate's top face by
+        # the dome's radius), turned to NED by the quaternion's third row
+        top = -0.5 * self.params.thickness - self.params.dome_radius
+        return float(x[2] + (1.0 - 2.0 * (a * a + b * b)) * top)
+
     # ------------------------------------------------------------ truth
     def cb_position(self, x: np.ndarray) -> np.ndarray:
         """NED position of the centre of buoyancy (flat wings) for a state (17,)."""
