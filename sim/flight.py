@@ -76,7 +76,12 @@ class FlightSpec:
     is the vehicle's heading at release (its x_c axis, wing 1, from north);
     ``vehicle`` overrides fields of the reference ``VehicleParams`` (model
     errors); ``ctl`` overrides parameters of the controller's table;
-    ``tracker_noise_m`` the position fixes' noise.
+    ``tracker_noise_m`` the position fixes' noise. ``radio_model`` (with
+    ``water`` and ``conductivity``) sends the fixes through the radio link
+    into the water (``sim/radio``): each is lost with the link's frame-loss
+    probability at the depth of the vehicle's antenna (the dome's top) when
+    it arrives; None: every fix arrives, at any depth. ``water`` also sets
+    the density (``VehicleParams.with_water``).
     """
 
     controller: str = "cascade"
@@ -95,6 +100,9 @@ class FlightSpec:
     vehicle: tuple = ()            #: ((field, value), ...) for dataclasses.replace
     ctl: tuple = ()                #: ((parameter name, value), ...)
     tracker_noise_m: float = 0.02
+    water: str = "fresh"
+    radio_model: Optional[str] = None
+    conductivity: Optional[float] = None
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -110,6 +118,13 @@ class FlightSpec:
             raise ValueError("dt %r s must divide the 10 ms tick" % self.dt)
         if not (self.hold_s >= 9.0 and self.max_flight_s > 0):
             raise ValueError("hold_s must be at least 9 s (the estimator aligns in 8) and max_flight_s > 0")
+        from roboray.sim.radio.radios import NAMES as RADIOS
+        from roboray.sim.vehicle import WATER_DENSITY
+
+        if self.water not in WATER_DENSITY:
+            raise ValueError("water must be one of %s, got %r" % (sorted(WATER_DENSITY), self.water))
+        if self.radio_model is not None and self.radio_model not in RADIOS:
+            raise ValueError("radio_model must be one of %s or None, got %r" % (RADIOS, self.radio_model))
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -355,11 +370,29 @@ class TickFeed:
     magnetometer sample, a pressure sample whose slot has ended, the fixes
     that have arrived, and the wing command when it changed."""
 
-    def __init__(self, sensors: SensorStream) -> None:
+    def __init__(self, sensors: SensorStream, link=None, antenna_z: float = 0.0, seed: int = 0) -> None:
         self.s = sensors
         self.t0 = float(sensors.ti[0])
         self._last = [-1, -1, -1]
         self._last_w: Optional[list] = None
+        #: ``sim/radio`` link the fixes cross (None: all arrive); the
+        #: antenna's body z from the centre of buoyancy (the truth's point)
+        self.link = link
+        self._antenna_z = antenna_z
+        self._dt = float(sensors.t[1] - sensors.t[0]) if sensors.n > 1 else 1.0
+        self._rng_link = np.random.default_rng([seed, 17])
+        self.fixes_used = 0
+        self.fixes_lost_to_link = 0
+
+    def _crosses(self, tk: float) -> bool:
+        """Whether a fix arriving at ``tk`` crosses the link (one draw a fix)."""
+        from roboray.sim.radio.link import frame_loss
+
+        s = self.s
+        k = min(int(round(tk / self._dt)), s.n - 1)
+        a, b = s.quaternion[k, 1], s.quaternion[k, 2]
+        depth = float(s.position[k, 2] + (1.0 - 2.0 * (a * a + b * b)) * self._antenna_z)
+        return bool(self._rng_link.uniform() >= frame_loss(self.link.margin_db(depth)))
 
     def tick_time(self, k: int) -> float:
         return self.t0 + k / TICK_HZ
@@ -385,6 +418,10 @@ class TickFeed:
         while j > self._last[2]:
             self._last[2] += 1
             f = self._last[2]
+            if self.link is not None and not self._crosses(tk):
+                self.fixes_lost_to_link += 1
+                continue
+            self.fixes_used += 1
             tick.append(["f", int(E.to_ticks(s.tf[f])), float(s.fix_ne[f, 0]), float(s.fix_ne[f, 1])])
         j = int(np.searchsorted(s.ti, tk, side="right")) - 1
         tick.append(["i", int(E.to_ticks(tk))] + [float(x) for x in s.gyro[j]] + [float(x) for x in s.accel[j]])
@@ -535,7 +572,7 @@ def vehicle_params(spec: FlightSpec):
     params = load_params()
     if spec.vehicle:
         params = dataclasses.replace(params, **dict(spec.vehicle))
-    return params
+    return params.with_water(spec.water) if spec.water != "fresh" else params
 
 
 def make_controller(spec: FlightSpec):
@@ -597,7 +634,13 @@ def fly(spec: FlightSpec, record_every: int = 1, depth=None) -> Flight:
     port_depth = float(x[0, 2] + rot0[2] @ model.port[0])
     sensors.set_rows(0, k_release + 1, x[0, 0:3] + rot0 @ cb, x[0, 3:7], np.zeros(3), still_f, port_depth,
                      np.zeros(4))
-    feed = TickFeed(sensors)
+    link = None
+    if spec.radio_model is not None:
+        from roboray.sim.radio import link as link_mod
+
+        link = link_mod.make(spec.radio_model, spec.water, spec.conductivity)
+    # the antenna: the dome's top, from the centre of buoyancy (body z, down)
+    feed = TickFeed(sensors, link, -0.5 * params.thickness - params.dome_radius - float(cb[2]), spec.seed)
     # The estimator, built as the scenario builds it once the hold's
     # pressures are in (the firmware zeroes depth at the surface).
     if spec.truth:
@@ -695,6 +738,8 @@ def fly(spec: FlightSpec, record_every: int = 1, depth=None) -> Flight:
                     setpoints=np.array(rec["sp"]), landed_at=landed_at, landing_position=landing_pos,
                     control_log=control_log)
     flight.metrics = metrics(flight)
+    flight.metrics["fixes_used"] = feed.fixes_used
+    flight.metrics["fixes_lost_to_link"] = feed.fixes_lost_to_link
     return flight
 
 

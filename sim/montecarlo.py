@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -62,13 +62,15 @@ def _payload_height_for_ell(params, factor: float) -> float:
 
 
 def draws(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, controller: str = "cascade",
-          truth: bool = False) -> list[Draw]:
+          truth: bool = False, link: Optional[tuple] = None) -> list[Draw]:
     """``runs`` target landings under random model errors: added mass (every
     added-mass and added-inertia coefficient), C_D, ell (through the
     payload's height) and the servo lag each off by up to +-10 %, the
     sensors' biases and noises of their own seed, the fixes' noise 1-4 cm;
     a target ``distance`` m from the release in a random direction, a
-    random heading at release."""
+    random heading at release. ``link``: (water, radio model, conductivity
+    or None): the fixes cross the radio into that water
+    (``FlightSpec.radio_model``); None: they all arrive."""
     if runs < 1:
         raise ValueError("runs must be at least 1, got %r" % runs)
     from roboray.sim.vehicle import load_params
@@ -86,15 +88,32 @@ def draws(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, 
         spec = FlightSpec(
             controller=controller, mode="target", target=(distance * math.cos(bearing), distance * math.sin(bearing)),
             depth=depth, truth=truth, seed=int(seed * 100000 + i), heading_deg=float(rng.uniform(0.0, 360.0)),
-            vehicle=tuple((k, float(v)) for k, v in vehicle), tracker_noise_m=float(rng.uniform(0.01, 0.04)))
+            vehicle=tuple((k, float(v)) for k, v in vehicle), tracker_noise_m=float(rng.uniform(0.01, 0.04)),
+            **link_fields(link))
         out.append(Draw(spec, tuple(float(x) for x in e)))
     return out
 
 
+def link_fields(link: Optional[tuple]) -> dict:
+    """``FlightSpec``'s water and link fields for ``draws``' ``link``."""
+    if link is None:
+        return {}
+    water, radio_model, conductivity = link
+    return {"water": water, "radio_model": radio_model, "conductivity": conductivity}
+
+
+def link_params(link: Optional[tuple]) -> dict:
+    """How a campaign's parameters name its link (nothing without one, so
+    results files of campaigns before the link model still resume)."""
+    if link is None:
+        return {}
+    return {"water": link[0], "radio_model": link[1], "conductivity_s_per_m": link[2]}
+
+
 def plan(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, controller: str = "cascade",
-         truth: bool = False) -> list[FlightSpec]:
+         truth: bool = False, link: Optional[tuple] = None) -> list[FlightSpec]:
     """The flights of ``draws``."""
-    return [d.spec for d in draws(runs, seed, depth, distance, controller, truth)]
+    return [d.spec for d in draws(runs, seed, depth, distance, controller, truth, link)]
 
 
 def landing_row(draw: Draw) -> dict:
@@ -119,14 +138,15 @@ def landing_row(draw: Draw) -> dict:
 
 
 def campaign(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, controller: str = "cascade",
-             truth: bool = False):
+             truth: bool = False, link: Optional[tuple] = None):
     """The landings of ``draws`` as a campaign (``sim/campaign``); its
     parameters name it in a results file."""
     from roboray.sim.campaign import Campaign
 
     params = {"runs": runs, "seed": seed, "depth_m": depth, "distance_m": distance, "controller": controller,
-              "estimator": "truth" if truth else "board estimator", "model_error": MODEL_ERROR}
-    return Campaign("montecarlo", params, draws(runs, seed, depth, distance, controller, truth), landing_row,
+              "estimator": "truth" if truth else "board estimator", "model_error": MODEL_ERROR,
+              **link_params(link)}
+    return Campaign("montecarlo", params, draws(runs, seed, depth, distance, controller, truth, link), landing_row,
                     COLUMNS)
 
 

@@ -312,16 +312,17 @@ def _digest(params) -> str:
 
 def campaign(base, parameters: Sequence[Parameter], points: Sequence[tuple], runs: int, seed: int = 0,
              depth: float = 10.0, distance: float = 2.0, controller: str = "cascade", truth: bool = False,
-             envelope_step_deg: float = ENVELOPE_STEP_DEG, vehicle: str = "reference", sampling: str = "grid"):
+             envelope_step_deg: float = ENVELOPE_STEP_DEG, vehicle: str = "reference", sampling: str = "grid",
+             link: Optional[tuple] = None):
     """Every point's design task and ``runs`` landings, point after point
     (task ``p * (runs + 1)`` is point ``p``'s design, the next ``runs`` its
     landings: the long and the short tasks mix evenly, so a progress bar
-    counting tasks keeps a true ETA)."""
+    counting tasks keeps a true ETA). ``link`` as ``MC.draws``'."""
     from roboray.sim.campaign import Campaign
 
     if not points:
         raise ValueError("a sweep needs at least one point")
-    draws = MC.draws(runs, seed, depth, distance, controller, truth)
+    draws = MC.draws(runs, seed, depth, distance, controller, truth, link)
     default_fold = controller_defs()["CTL_FOLD_DEG"][0]
     tasks = []
     for i, values in enumerate(points):
@@ -337,7 +338,7 @@ def campaign(base, parameters: Sequence[Parameter], points: Sequence[tuple], run
                   "sampling": sampling, "points": len(points), "seed": seed, "runs": runs, "depth_m": depth,
                   "distance_m": distance, "controller": controller,
                   "estimator": "truth" if truth else "board estimator", "model_error": MC.MODEL_ERROR,
-                  "envelope_step_deg": envelope_step_deg}
+                  "envelope_step_deg": envelope_step_deg, **MC.link_params(link)}
     return Campaign("sweep", run_params, tasks, task_row, columns(parameters))
 
 
