@@ -33,48 +33,72 @@ def hold_span(ax, span: float) -> None:
             ax.invert_yaxis()
 
 
+def same_series(series, rel: float = 1e-3) -> list:
+    """Groups (lists of indices) of the series (K, N) that coincide: within
+    ``rel`` of the span of all of them at every sample. One line drawn
+    over another hides it; a group is drawn once and named for all."""
+    ys = np.asarray(series, float)
+    lo, hi = np.nanmin(ys), np.nanmax(ys)
+    tol = rel * max(hi - lo, np.nanmax(np.abs(ys)), 1e-300)
+    groups = []
+    for k in range(len(ys)):
+        for g in groups:
+            if np.nanmax(np.abs(ys[k] - ys[g[0]])) <= tol:
+                g.append(k)
+                break
+        else:
+            groups.append([k])
+    return groups
+
+
+def plot_series(ax, t, series, labels, styles=None, rel: float = 1e-3) -> None:
+    """Plot the series (K, N) against t with their labels; series that
+    coincide (``same_series``) are one line labelled "a = b", in the first
+    one's colour and style, so that none hides behind another; the others
+    each in a style of their own (default ``WING_STYLES``), so that two
+    that meet for a while both show there."""
+    styles = WING_STYLES if styles is None else styles
+    for g in same_series(series, rel):
+        ax.plot(t, np.asarray(series[g[0]], float), color="C%d" % g[0], ls=styles[g[0]],
+                label=" = ".join(labels[k] for k in g))
+
+
 def drop_figure(run, title: str, vehicle: int = 0):
-    """Body velocities, NED velocities, rates, position and wings against
-    time, as a matplotlib figure."""
+    """Body velocities, NED velocities, rates, horizontal position, depth
+    and wings against time, as a matplotlib figure: one quantity a panel,
+    one y axis a panel."""
     t = run.t
     nu = run.nu[:, vehicle]
     vel = run.velocity_ned()[:, vehicle]
     pos = run.x[:, vehicle, :3]
-    fig, axes = plt.subplots(5, 1, figsize=(8, 12), sharex=True)
+    fig, axes = plt.subplots(6, 1, figsize=(8, 13), sharex=True)
     ax = axes[0]
-    for k, name in enumerate(("V1 (x_c)", "V2 (y_c)", "V3 (z_c)")):
-        ax.plot(t, nu[:, k], label=name)
+    plot_series(ax, t, nu[:, :3].T, ("V1 (x_c)", "V2 (y_c)", "V3 (z_c)"))
     ax.set_ylabel("body velocity (m/s)")
     hold_span(ax, 0.02)
     ax.legend(loc="best", fontsize=8)
     ax = axes[1]
-    for k, name in enumerate(("north", "east", "down")):
-        ax.plot(t, vel[:, k], label=name)
+    plot_series(ax, t, vel.T, ("north", "east", "down"))
     ax.set_ylabel("NED velocity (m/s)")
     hold_span(ax, 0.02)
     ax.legend(loc="best", fontsize=8)
     ax = axes[2]
-    for k, name in enumerate(("p (x_c)", "q (y_c)", "r (z_c)")):
-        ax.plot(t, nu[:, 3 + k], label=name)
+    plot_series(ax, t, nu[:, 3:6].T, ("p (x_c)", "q (y_c)", "r (z_c)"))
     ax.set_ylabel("body rates (rad/s)")
     hold_span(ax, 0.02)
     ax.legend(loc="best", fontsize=8)
     ax = axes[3]
-    ax.plot(t, pos[:, 0], label="north")
-    ax.plot(t, pos[:, 1], label="east")
+    plot_series(ax, t, pos[:, :2].T, ("north", "east"))
     ax.set_ylabel("horizontal (m)")
     hold_span(ax, 0.02)
-    ax2 = ax.twinx()
-    ax2.plot(t, pos[:, 2], "k--", label="depth")
-    ax2.set_ylabel("depth (m)")
-    ax2.invert_yaxis()
-    hold_span(ax2, 0.02)
-    lines = ax.get_legend_handles_labels()
-    more = ax2.get_legend_handles_labels()
-    ax.legend(lines[0] + more[0], lines[1] + more[1], loc="upper right", fontsize=8)
+    ax.legend(loc="best", fontsize=8)
     ax = axes[4]
-    for k in range(4):
-        ax.plot(t, np.degrees(run.x[:, vehicle, 13 + k]), ls=WING_STYLES[k], label=WINGS[k])
+    ax.plot(t, pos[:, 2], color="k", label="depth")
+    ax.set_ylabel("depth (m)")
+    hold_span(ax, 0.02)
+    ax.invert_yaxis()
+    ax = axes[5]
+    plot_series(ax, t, np.degrees(run.x[:, vehicle, 13:17]).T, WINGS, WING_STYLES)
     ax.set_ylabel("wing angle (deg)")
     hold_span(ax, 2.0)
     ax.set_xlabel("time (s)")

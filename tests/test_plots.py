@@ -38,7 +38,7 @@ def legend_labels(ax) -> list:
 
 def test_drop_draws_round_off_as_zero_and_names_the_wings():
     from roboray.sim.dynamics import Model
-    from roboray.sim.plots import WINGS, drop_figure
+    from roboray.sim.plots import drop_figure
     from roboray.sim.simulate import simulate
 
     model = Model(None)
@@ -47,16 +47,46 @@ def test_drop_draws_round_off_as_zero_and_names_the_wings():
     assert np.abs(rates).max() < 1e-12   # a symmetric straight fall: zero up to round-off
     fig = drop_figure(run, "drop")
     try:
-        body, ned, rate_ax, horizontal, wings = fig.axes[:5]
+        body, ned, rate_ax, horizontal, depth, wings = fig.axes
         lo, hi = rate_ax.get_ylim()
         assert hi - lo >= 0.02 and lo <= 0.0 <= hi          # not 1e-16 at full scale
         lo, hi = horizontal.get_ylim()
         assert hi - lo >= 0.02
         lo, hi = body.get_ylim()
         assert hi >= 0.29                                     # real data keeps its own scale
-        assert legend_labels(wings) == list(WINGS)
-        assert len({line.get_linestyle() for line in wings.get_lines()}) == 4   # overlapping wings stay visible
+        # four wings at one angle: one line named for all four, not four hiding each other
+        assert legend_labels(wings) == ["wing 1 = wing 2 = wing 3 = wing 4"]
         assert rate_ax.get_ylabel() == "body rates (rad/s)" and wings.get_ylabel() == "wing angle (deg)"
+        check_style(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_drop_draws_each_series_visibly_and_depth_on_its_own_panel():
+    from roboray.sim.dynamics import Model
+    from roboray.sim.plots import drop_figure
+    from roboray.sim.simulate import simulate
+
+    model = Model(None)
+    run = simulate(model, model.state(wings=np.radians([0, 0, 90, 90]), attitude=(0.996, 0.087, 0.0, 0.0)),
+                   10.0, dt=0.01)
+    fig = drop_figure(run, "drop")
+    try:
+        boxes = [tuple(np.round(ax.get_position().bounds, 6)) for ax in fig.axes]
+        assert len(set(boxes)) == len(boxes) == 6              # no panel with a second y axis
+        names = {ax.get_ylabel(): ax for ax in fig.axes}
+        depth = names["depth (m)"]
+        assert legend_labels(names["horizontal (m)"]) == ["north", "east"]
+        assert depth.yaxis_inverted() and len(depth.get_lines()) == 1
+        assert legend_labels(names["wing angle (deg)"]) == ["wing 1 = wing 2", "wing 3 = wing 4"]
+        for ax in fig.axes:
+            lines = ax.get_lines()
+            # no line drawn exactly over another in the same style
+            for i in range(len(lines)):
+                for j in range(i):
+                    same = np.array_equal(lines[i].get_ydata(), lines[j].get_ydata())
+                    assert not same, (ax.get_ylabel(), lines[i].get_label(), lines[j].get_label())
+                    assert lines[i].get_linestyle() != lines[j].get_linestyle(), ax.get_ylabel()
         check_style(fig)
     finally:
         plt.close(fig)
