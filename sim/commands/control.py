@@ -178,8 +178,11 @@ def do_montecarlo(args: argparse.Namespace) -> None:
     if args.workers is None and args.cluster is None:   # no process started for nothing to do
         args.workers = min(args.runs, os.cpu_count() or 1)
     engine = C.engine_from_args(args)
+    from roboray.sim.commands.radio import campaign_link
+
+    link = campaign_link(args)
     campaign = MC.campaign(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
-                           controller=args.controller, truth=args.truth)
+                           controller=args.controller, truth=args.truth, link=link)
     notice = C.stderr_notice()
     with contextlib.ExitStack() as stack, C.cli_errors():
         bar = [progress.QUIET]
@@ -197,7 +200,8 @@ def do_montecarlo(args: argparse.Namespace) -> None:
     result.update(workers=stats.get("workers", engine.workers), engine=stats["engine"], wall_time_s=stats["wall_s"],
                   runs_run=stats["ran"], runs_resumed=stats["present"], worker_restarts=stats["restarts"],
                   depth_m=args.depth, distance_m=args.distance, controller=args.controller,
-                  model_error=MC.MODEL_ERROR, estimator="truth" if args.truth else "board estimator")
+                  model_error=MC.MODEL_ERROR, estimator="truth" if args.truth else "board estimator",
+                  **MC.link_params(link))
     result["meets_target"] = bool(result["landing_error_p95_m"] is not None and result["landing_error_p95_m"] <= 0.5
                                   and result["landed"] == result["runs"])
     if args.results:
@@ -440,6 +444,11 @@ def register(sub, bench) -> None:
     add_engine_options(p, "flights")
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     add_landing_options(p)
+    from roboray.sim.commands.radio import add_link_options
+
+    p.add_argument("--water", choices=("fresh", "sea"), default="fresh",
+                   help="fresh (default) or sea water: sea brings the radio link (fixes stop a decimetre down)")
+    add_link_options(p, ground=False)
     p.add_argument("--results", type=results_file, metavar="FILE.csv|FILE.parquet",
                    help="one row a run (its drawn errors and outcomes), written as each lands, and the summary "
                         "beside it (FILE.summary.json); run again, the same command continues from the rows there")
