@@ -32,8 +32,8 @@ def ground_distance(text: str) -> float:
     return value
 
 
-def add_link_options(p: argparse.ArgumentParser, radio_flags: tuple = ("--radio-model",)) -> None:
-    """``--conductivity``, the radio (``radio_flags``) and ``--ground-distance``."""
+def add_link_options(p: argparse.ArgumentParser, radio_flags: tuple = ("--radio-model",), ground: bool = True) -> None:
+    """``--conductivity``, the radio (``radio_flags``) and (``ground``) ``--ground-distance``."""
     from roboray.sim.radio.radios import NAMES, vehicle_radio
 
     p.add_argument("--conductivity", type=conductivity, metavar="S_PER_M",
@@ -41,6 +41,8 @@ def add_link_options(p: argparse.ArgumentParser, radio_flags: tuple = ("--radio-
     p.add_argument(*radio_flags, choices=NAMES, default=None, dest="radio_model",
                    help="the radio whose link crosses the water (default %s, the buildable vehicle's)"
                         % vehicle_radio())
+    if not ground:
+        return
     p.add_argument("--ground-distance", type=ground_distance, default=None, metavar="M",
                    help="air from the ground station's antenna to the point above the vehicle (default 10 m)")
 
@@ -55,6 +57,23 @@ def link_of(args: argparse.Namespace):
                          getattr(args, "conductivity", None), link.GROUND_DISTANCE_M if d is None else d)
     except ValueError as exc:
         raise CliError(str(exc))
+
+
+def campaign_link(args: argparse.Namespace):
+    """A campaign's link, ``(water, radio model, conductivity)`` for
+    ``sim/montecarlo.py``'s draws, or None (every fix arrives, at any depth)
+    when none of ``--radio-model``, ``--conductivity`` or ``--water sea``
+    was given."""
+    from roboray.sim.radio.radios import vehicle_radio
+
+    water = getattr(args, "water", "fresh")
+    radio_model = getattr(args, "radio_model", None)
+    sigma = getattr(args, "conductivity", None)
+    if radio_model is None and sigma is None and water == "fresh":
+        return None
+    link = (water, radio_model or vehicle_radio(), sigma)
+    link_of(argparse.Namespace(water=water, radio_model=link[1], conductivity=sigma))   # checked here, not in a worker
+    return link
 
 
 def reach_table(lk, rows: int = 11) -> list[dict]:
