@@ -62,12 +62,14 @@ def do_sweep(args: argparse.Namespace) -> None:
     # the file's name, not its path: the digest of its numbers is what a
     # resume must match, from whichever folder the command runs
     vehicle = os.path.basename(args.vehicle) if args.vehicle else "reference"
+    from roboray.sim.commands.radio import campaign_link
+
     engine = C.engine_from_args(args)
     campaign = S.campaign(base, parameters, points, args.runs, seed=args.seed, depth=args.depth,
                           distance=args.distance, controller=args.controller, truth=args.truth,
                           envelope_step_deg=args.envelope_step, vehicle=vehicle + ("" if args.water == "fresh"
                                                                                     else ", sea water"),
-                          sampling=sampling)
+                          sampling=sampling, link=campaign_link(args))
     notice = C.stderr_notice()
     with contextlib.ExitStack() as stack, C.cli_errors():
         bar = [progress.QUIET]
@@ -159,6 +161,9 @@ def register(sub, bench) -> None:
                    help="grid step of each point's envelope search, deg (default %g, refined locally)"
                    % ENVELOPE_STEP_DEG)
     add_vehicle_options(p)
+    from roboray.sim.commands.radio import add_link_options
+
+    add_link_options(p, ground=False)
     p.add_argument("--results", type=results_file, metavar="FILE.csv|FILE.parquet",
                    help="one row a task (kind design or landing, the point's values, its trims or the landing), "
                         "written as each ends, and the summary beside it (FILE.summary.json); run again, the same "
