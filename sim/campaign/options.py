@@ -29,6 +29,10 @@ def at_least(minimum: int, why: str = "") -> Callable[[str], int]:
 
 _count = at_least(1)
 
+#: An argparse type for every ``--seed``: numpy's SeedSequence takes no
+#: negative number (it raised from deep inside a run).
+seed = at_least(0, "%r: a seed is a whole number >= 0")
+
 
 def results_file(text: str) -> str:
     """An argparse type: a results file a campaign can write, .csv or .parquet."""

@@ -258,6 +258,12 @@ def _model_check(emu_tasks: dict) -> dict:
     return out
 
 
+def _metres(value) -> str:
+    """A landing error as the sil report gives it (mm), or why there is none:
+    the run's figure is a raw double (0.012345678901 m)."""
+    return "%.3f" % value if value is not None else "none (no landing)"
+
+
 def do_bench_board(args: argparse.Namespace) -> None:
     from roboray.sim.twin import timing
     from roboray.tools.micropython import rp2350_emu
@@ -337,7 +343,7 @@ def do_bench_board(args: argparse.Namespace) -> None:
 
     def text(r: dict) -> str:
         lines = ["%s at %g MHz, %s (landing error %s m)" % (r["board"], r["cpu_mhz"], r["scenario"],
-                                                             r["landing_error_m"]),
+                                                             _metres(r["landing_error_m"])),
                  "   task        calls   mean us    p99 us    max us"]
         for name, s in r["tasks"].items():
             if s.get("calls"):
@@ -365,7 +371,7 @@ def do_bench_board(args: argparse.Namespace) -> None:
             lines.append("wrote %s" % r["model"])
             m = r["model_check"]
             lines.append("the model on the WebAssembly port, target-landing (landing error %s m, slot p99 %s ms), "
-                         "mean a call against the counted one:" % (m["landing_error_m"], m["slot_p99_ms"]))
+                         "mean a call against the counted one:" % (_metres(m["landing_error_m"]), m["slot_p99_ms"]))
             lines.append("   " + ", ".join("%s %.2f" % (n, t["ratio"]) for n, t in m["tasks"].items()))
         return "\n".join(lines)
 

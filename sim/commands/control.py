@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from roboray.sim import progress
-from roboray.sim.campaign.options import add_engine_options, at_least, results_file
+from roboray.sim.campaign.options import add_engine_options, at_least, results_file, seed
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, floats, number, output_file, positive
 
 #: Heap bytes a cascade step may allocate on MicroPython (issue 7).
@@ -433,7 +433,7 @@ def register(sub, bench) -> None:
     p.add_argument("--heading", type=number, default=0.0, metavar="DEG",
                    help="heading at release (wing 1 from north), deg (default 0)")
     p.add_argument("--truth", action="store_true", help="feed the controller the true state, not the estimator's")
-    p.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="sensor noise seed (default 0)")
     p.add_argument("--max-time", type=positive, default=60.0, metavar="S",
                    help="longest flight after release, s (default 60)")
     p.add_argument("--plot", type=output_file, metavar="FILE.png", help="plot the track, depth, velocity and wings")
@@ -442,7 +442,7 @@ def register(sub, bench) -> None:
     p = command(sub, "montecarlo", do_montecarlo, "target landings under random model and sensor errors")
     p.add_argument("--runs", type=_count, default=100, help="number of flights (default 100)")
     add_engine_options(p, "flights")
-    p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
     add_landing_options(p)
     from roboray.sim.commands.radio import add_link_options
 

@@ -8,7 +8,7 @@ import contextlib
 import os
 
 from roboray.sim import progress
-from roboray.sim.campaign.options import add_engine_options, at_least, results_file
+from roboray.sim.campaign.options import add_engine_options, at_least, results_file, seed
 from roboray.sim.commands.control import add_landing_options
 from roboray.tools.cli import UsageError, add_json, check_target, command, emit, output_file, positive
 
@@ -155,7 +155,7 @@ def register(sub, bench) -> None:
     how.add_argument("--lhs", type=_count, metavar="N", help="N Latin-hypercube points (seeded by --seed)")
     p.add_argument("--runs", type=_runs, default=20, help="Monte Carlo landings per point (default 20)")
     add_engine_options(p, "design points and landings")
-    p.add_argument("--seed", type=int, default=0, help="seed of the Latin hypercube and the draws (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the Latin hypercube and the draws (default 0)")
     add_landing_options(p)
     p.add_argument("--envelope-step", type=positive, default=ENVELOPE_STEP_DEG, metavar="DEG",
                    help="grid step of each point's envelope search, deg (default %g, refined locally)"
