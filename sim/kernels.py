@@ -22,11 +22,45 @@ the batch shares one vehicle), passed as one tuple ``T``:
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
 import numba
 from numba import njit, prange
+from numba.core import event as _numba_event
+
+log = logging.getLogger(__name__)
+
+#: What the first compile of the kernels takes on a 2-core machine: about
+#: 70 s in the suite's fresh-clone run (README); 84 s wall for the first
+#: ``roboray-sim drop --wings 0,0,90,90 --duration 1`` after ``pip install .``
+#: on a loaded one (2026-12-04). Later runs load them from numba's cache
+#: (sim/__init__.py says where) in about a second.
+COMPILE_S = 70
+
+
+class _SayCompiling(_numba_event.Listener):
+    """Says once a process that the kernels are being compiled: a user
+    otherwise sees a minute of nothing and then a slow "x real time"."""
+
+    said = False
+
+    def on_start(self, event):
+        if self.said:
+            return
+        dispatcher = (event.data or {}).get("dispatcher")
+        module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+        if module.startswith("roboray.sim"):
+            self.said = True
+            log.info("compiling the dynamics kernels, once after an install or a change "
+                     "(about %d s; cached in %s)", COMPILE_S, numba.config.CACHE_DIR or "the package")
+
+    def on_end(self, event):
+        pass
+
+
+_numba_event.register("numba:compile", _SayCompiling())
 
 # Columns of p
 P_MASS, P_RHO, P_G, P_CD, P_CF, P_VOLUME, P_TAU, P_RATE, P_SMIN, P_SMAX = range(10)

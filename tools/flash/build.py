@@ -132,27 +132,9 @@ def project_version() -> str:
         return "unknown"
 
 
-def source_revision(root: Path) -> tuple[Optional[str], Optional[bool]]:
-    """(commit, dirty) of the checkout holding the board code at ``root``.
-
-    ``dirty`` looks at ``shared/`` and ``firmware/`` only: what the board
-    runs. (None, None) outside a git checkout or without git.
-    """
-    def git(*args: str) -> str:
-        return subprocess.run(
-            ["git", "--no-optional-locks", *args], cwd=root, capture_output=True,
-            text=True, check=True, timeout=30,
-        ).stdout.strip()
-
-    try:
-        top = git("rev-parse", "--show-toplevel")
-        if Path(top).resolve() != Path(root).resolve():
-            return None, None
-        commit = git("rev-parse", "HEAD")
-        dirty = bool(git("status", "--porcelain", "--", "shared", "firmware"))
-    except (OSError, subprocess.SubprocessError):
-        return None, None
-    return commit, dirty
+# Where the build's identity comes from: git, or what the package build
+# recorded (an installed package).
+source_revision = buildinfo.source_revision
 
 
 def mpy_cross_version() -> tuple[str, str]:

@@ -12,6 +12,12 @@ built from, with ``-dirty`` appended when ``shared/`` or ``firmware/`` had
 uncommitted changes, or ``unknown`` when the build did not run from a git
 checkout.
 
+An installed package (``pip install .``, not editable) is no git checkout:
+the package build (``setup.py``) records the checkout's commit and dirty
+flag beside this module (:data:`RECORD`), and :func:`source_revision` reads
+them there when git has nothing to say, so a board built from the installed
+package says which source it came from.
+
 The start-up line (the contract with ``firmware/app.py``)
 ---------------------------------------------------------
 The application's first line of output at start-up, printed before it
@@ -33,7 +39,11 @@ the application it just installed is the one that started.
 
 from __future__ import annotations
 
+import json
 import re
+import subprocess
+from pathlib import Path
+from typing import Optional
 
 #: The start-up line: ``RoboRay firmware <version> <revision>``.
 BANNER_FORMAT = "RoboRay firmware %s %s"
@@ -72,3 +82,68 @@ def module_source(version: str, revision: str) -> str:
         "VERSION = %r\nREVISION = %r\nBANNER = %r\n"
         % (version, revision, banner(version, revision))
     )
+
+
+#: File the package build writes beside this module: ``{"commit", "dirty"}``.
+RECORD = "build_revision.json"
+
+
+def source_revision(root: Path) -> tuple[Optional[str], Optional[bool]]:
+    """(commit, dirty) of the checkout holding the board code at ``root``.
+
+    ``dirty`` looks at ``shared/`` and ``firmware/`` only: what the board
+    runs. Outside a git checkout (an installed package) or without git, what
+    the package build recorded (:func:`recorded_revision`).
+    """
+    found = git_revision(root)
+    return found if found[0] else recorded_revision()
+
+
+def git_revision(root: Path) -> tuple[Optional[str], Optional[bool]]:
+    """(commit, dirty) from git when ``root`` is the top of a checkout, else
+    (None, None): a package installed inside some other repository (a
+    virtual environment in a clone) must not take that repository's commit."""
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", "--no-optional-locks", *args], cwd=root, capture_output=True,
+            text=True, check=True, timeout=30,
+        ).stdout.strip()
+
+    try:
+        top = git("rev-parse", "--show-toplevel")
+        if Path(top).resolve() != Path(root).resolve():
+            return None, None
+        commit = git("rev-parse", "HEAD")
+        dirty = bool(git("status", "--porcelain", "--", "shared", "firmware"))
+    except (OSError, subprocess.SubprocessError):
+        return None, None
+    return commit, dirty
+
+
+def recorded_revision(folder: Optional[Path] = None) -> tuple[Optional[str], Optional[bool]]:
+    """(commit, dirty) the package build recorded in ``folder`` (this
+    module's), or (None, None) where none did (a checkout, an sdist built
+    without git)."""
+    path = Path(folder if folder is not None else Path(__file__).parent) / RECORD
+    try:
+        data = json.loads(path.read_text())
+        commit, dirty = data["commit"], data["dirty"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None, None
+    if not isinstance(commit, str) or not re.fullmatch(r"[0-9a-f]{40}", commit):
+        return None, None
+    return commit, bool(dirty)
+
+
+def write_record(root: Path, folder: Path) -> tuple[Optional[str], Optional[bool]]:
+    """Record the checkout at ``root``'s revision in ``folder`` (the package
+    build's copy of this module's folder); outside a checkout, none (and
+    none left from an earlier build in the same folder)."""
+    commit, dirty = git_revision(root)
+    path = Path(folder) / RECORD
+    if commit:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps({"commit": commit, "dirty": dirty}) + "\n")
+    elif path.exists():
+        path.unlink()
+    return commit, dirty
