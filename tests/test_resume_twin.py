@@ -106,3 +106,12 @@ def test_a_lockup_after_a_commanded_reboot_is_a_lockup_again():
             operator=[Action(3.0, "reboot", label="reboot", max_tries=1)])
     assert r["resets"] == 2
     assert [f["name"] for f in r["failsafes"]].count("watchdog reset") == 1
+
+
+def test_two_watchdog_faults_a_second_apart_are_two_resets():
+    # the second comes as the first hang's watchdog fires: it hangs the loop
+    # of the board that comes back, once that loop has started its watchdog
+    r = fly("watchdog@20", "watchdog@21")
+    assert r["resets"] == 2, r["resets"]
+    assert resumed(r, "Watchdog reset at")
+    assert r["modes"][-1][1] in ("TARGET", "FAILSAFE") and r["landing_error_m"] < 0.5, r["landing_error_m"]

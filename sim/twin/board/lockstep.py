@@ -94,7 +94,11 @@ class Lockstep:
         self._acc = 0
         self._steps = []
         self._k = 0
-        self._hanging = False
+        # hangs asked for and not yet ended by the watchdog: one arriving
+        # while the loop already hangs, or while the board boots (no
+        # watchdog yet), hangs the next loop once its watchdog runs, so
+        # each ``watchdog`` fault is a reset of its own
+        self._hangs = 0
         self._stall_us = 0
         self._inside = False
         self.cost_us = 0
@@ -159,12 +163,16 @@ class Lockstep:
                         self._acc -= step
                         self.boundary()
                     self.twin.check_watchdog()
-            while self._hanging:
+            while self._hangs and self.twin.wdt_timeout_ms:
                 # the loop is stuck: time passes, the world goes on, only the
                 # watchdog can end this (check_watchdog raises BoardReset)
                 vclock.advance(step)
                 self.boundary()
-                self.twin.check_watchdog()
+                try:
+                    self.twin.check_watchdog()
+                except machine.BoardReset:
+                    self._hangs -= 1
+                    raise
         finally:
             self._inside = False
             if self.cost_us:
@@ -232,7 +240,7 @@ class Lockstep:
             f = self.files
             f.cut_at = f.steps + e[1]
         elif kind == "hang":
-            self._hanging = True
+            self._hangs += 1
         elif kind == "stall":
             self._stall_us = e[1] * 1000
         elif kind == "cost":
@@ -354,7 +362,6 @@ def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, bo
             except machine.BoardReset:
                 ls.life_ended()
                 ls.resets += 1
-                ls._hanging = False
                 ls.cost_us = 0
                 vclock.set_tick_cost_us(0)
             except Exception as e:  # noqa: BLE001 - the application crashed
@@ -369,7 +376,6 @@ def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, bo
                         time.sleep_ms(ls.step_us // 1000)
                 except machine.BoardReset:
                     ls.resets += 1
-                    ls._hanging = False
             except PowerCut:
                 ls.life_ended()
                 ls.power_cuts += 1
