@@ -12,7 +12,9 @@ needs, each done by code run on the board with ``SerialTransport.exec``:
   renamed over ``<name>`` only when the hash is the one expected, so a cut
   connection never leaves half a module in place;
 - ``remove``, ``mkdirs`` and ``restart`` (soft reset, then the start-up
-  output read back).
+  output read back);
+- ``identity`` (which MicroPython build runs) and ``bootloader`` (into
+  BOOTSEL, for ``roboray-flash firmware``).
 
 Content travels base64-encoded, 3 kB a command: a third more bytes than
 the data, where mpremote's ``fs_writefile`` sends ``repr()`` of 256-byte
@@ -88,7 +90,8 @@ def _rf_survey(m, ps):
     s = os.statvfs('/')
     print(json.dumps({'manifest': t, 'sizes': [_rf_size(p) for p in ps], 'block': s[1],
         'free_blocks': s[4], 'blocks': s[2], 'mpy': getattr(sys.implementation, '_mpy', None),
-        'machine': getattr(sys.implementation, '_machine', sys.platform)}))
+        'machine': getattr(sys.implementation, '_machine', sys.platform),
+        'build': getattr(sys.implementation, '_build', None), 'version': os.uname().version}))
 def _rf_mkdirs(ds):
     for d in ds:
         if _rf_size(d) < 0:
@@ -330,6 +333,27 @@ class Board:
         paths, dirs = list(paths), list(dirs)
         if paths or dirs:
             self.exec("_rf_remove(%r, %r)" % (paths, dirs), "removing files")
+
+    def identity(self) -> dict:
+        """Which MicroPython build the board runs: ``platform``, ``machine``
+        and ``version`` (``os.uname()``), ``release``, ``build``
+        (``sys.implementation._build``, the board folder it was built for)."""
+        return self._json("_u = os.uname()\nprint(json.dumps({'platform': sys.platform, 'machine': _u.machine, "
+                          "'version': _u.version, 'release': _u.release, "
+                          "'build': getattr(sys.implementation, '_build', None)}))\ndel _u",
+                          "reading its build")
+
+    def bootloader(self) -> None:
+        """Restart the board into its boot ROM's BOOTSEL mode (the USB
+        drive), as ``mpremote bootloader`` does; the port then goes away."""
+        t = self._t
+        if t is None:
+            raise ConnectionLost("not connected to %s" % self.device)
+        try:
+            t.exec_raw_no_follow("import time, machine; time.sleep_ms(100); machine.bootloader()")
+        except (TransportError, serial.SerialException, OSError) as exc:
+            raise ConnectionLost("connection to %s lost while asking for BOOTSEL: %s" % (self.device, exc)) from None
+        self._restarted = True
 
     # -------------------------------------------------------------- restart
     def restart(self, expect: str, timeout_s: float = 10.0, settle_s: float = 1.0) -> dict:

@@ -5,12 +5,14 @@
   Pico 2's ROMFS partition (:mod:`.romfs`) or, without one, to ``/lib``,
   safe to interrupt (:mod:`.deploy`);
 - ``status``: what the board holds against the build;
+- ``firmware``: the RoboRay MicroPython UF2 onto a Pico 2 (:mod:`.firmware`);
 - ``virtual-board``: a MicroPython board on a pseudo-terminal, for trying all of it.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import logging
 import os
 import signal
@@ -52,7 +54,10 @@ def do_deploy(args: argparse.Namespace) -> None:
 
     # the board first: a port that is not there is said before anything
     # is built or written (the build folder included)
+    from .firmware import build_note
+
     with _board(args) as board:
+        board_build = board.identity()
         result = _build(args)
         report = None
         why = None
@@ -71,10 +76,14 @@ def do_deploy(args: argparse.Namespace) -> None:
             report["target"] = "lib"
             if why:
                 report["romfs_unavailable"] = why
+    report["board_build"] = board_build
+    report["firmware_note"] = build_note(board_build)
     emit(args, report, _deploy_text)
 
 
 def _deploy_text(r: dict) -> str:
+    if r.get("firmware_note"):
+        return "note: %s\n%s" % (r["firmware_note"], _deploy_text(dict(r, firmware_note=None)))
     if r.get("target") == "romfs":
         img = "ROMFS image %d B of %d B partition %s" % (
             r["romfs_image_bytes"], r["romfs_partition_bytes"], "written" if r["romfs_written"] else "unchanged")
@@ -130,6 +139,87 @@ def _status_text(r: dict) -> str:
     lines += ["  extra    " + p for p in r["extra"]]
     lines.append("up to date" if r["up_to_date"] else "not up to date: roboray-flash deploy")
     return "\n".join(lines)
+
+
+def do_firmware(args: argparse.Namespace) -> None:
+    """Put the RoboRay MicroPython UF2 on a Pico 2 through its BOOTSEL drive."""
+    from . import firmware as fw
+    from .board import Board
+
+    data, figures, expected = fw.load_image(args.uf2)
+    report: dict = {"uf2": str(args.uf2 or fw.IMAGE), "uf2_bytes": len(data), "blocks": figures["blocks"],
+                    "sha256": hashlib.sha256(data).hexdigest(), "expected": expected,
+                    "bootloader_from": None}
+    if args.drive is not None:
+        if not args.drive.is_dir():
+            raise UsageError("--drive %s is not a folder" % args.drive)
+        drive = args.drive
+    else:
+        drive = fw.find_drive()
+        if drive is None:
+            port = fw.micropython_port()
+            if port is None:
+                raise fw.NoDrive("no Pico 2 BOOTSEL drive mounted (looked in %s) and no board on USB: hold "
+                                 "BOOTSEL while plugging the Pico 2 in, or pass --drive"
+                                 % ", ".join(str(r) for r in fw.mount_roots()))
+            with Board(port, timeout_s=args.timeout) as board:
+                report["board_before"] = board.identity()
+                log.info("%s runs %s: restarting it into BOOTSEL", port, fw.describe_identity(report["board_before"]))
+                board.bootloader()
+            report["bootloader_from"] = port
+            drive = fw.wait_for(fw.find_drive, args.drive_timeout)
+            if drive is None:
+                raise fw.NoDrive("the board on %s was sent to BOOTSEL but no RP2350 drive was mounted within %g s "
+                                 "(mount it, then pass --drive)" % (port, args.drive_timeout))
+    info = fw.check_drive(drive)
+    report.update({"drive": str(drive), "board_id": info.get("Board-ID")})
+    target = fw.write_image(drive, data)
+    report["written"] = str(target)
+    if not args.no_wait:
+        port = fw.wait_for(fw.micropython_port, args.drive_timeout)
+        if port is None:
+            raise NoBoardFound("the image was written to %s but no board came back on USB within %g s "
+                               "(replug it; a board still in BOOTSEL did not take the image)"
+                               % (drive, args.drive_timeout))
+        reported = fw.wait_for(lambda: _identity_or_none(port, args.timeout), args.timeout)
+        if reported is None:
+            raise fw.FirmwareMismatch("the board came back on %s but its MicroPython did not answer" % port)
+        report.update({"port": port, "board": reported})
+        why = fw.compare_identity(reported, expected)
+        if why:
+            raise fw.FirmwareMismatch("the board came back on %s running %s, not the image written: %s"
+                                      % (port, fw.describe_identity(reported), why))
+    emit(args, report, _firmware_text)
+
+
+def _identity_or_none(port: str, timeout_s: float):
+    from .board import Board
+    from .errors import FlashError
+
+    try:
+        with Board(port, timeout_s=timeout_s) as board:
+            return board.identity()
+    except FlashError as exc:  # enumerated but not answering yet
+        log.debug("%s: %s", port, exc)
+        return None
+
+
+def _firmware_text(r: dict) -> str:
+    lines = []
+    if r["bootloader_from"]:
+        lines.append("%s was running %s: restarted it into BOOTSEL" % (r["bootloader_from"], _ident(r["board_before"])))
+    lines.append("wrote %s (%d blocks, %d kB) to %s (Board-ID: %s)" % (
+        os.path.basename(r["uf2"]), r["blocks"], r["uf2_bytes"] // 1024, r["drive"], r["board_id"]))
+    if "board" in r:
+        lines.append("%s is back: %s%s" % (r["port"], _ident(r["board"]),
+                                           ", the build written" if r["expected"] else ""))
+    return "\n".join(lines)
+
+
+def _ident(ident: dict) -> str:
+    from .firmware import describe_identity
+
+    return describe_identity(ident)
 
 
 def do_logs(args: argparse.Namespace) -> None:
@@ -230,6 +320,22 @@ def build_parser():
     p = command(sub, "status", do_status, "compare the board's files with the build")
     _board_options(p)
     _build_options(p)
+    add_json(p)
+
+    p = command(sub, "firmware", do_firmware,
+                "install the RoboRay MicroPython UF2 on a Pico 2 through its BOOTSEL drive")
+    p.add_argument("--drive", type=Path, metavar="DIR",
+                   help="the BOOTSEL drive's folder (default: the one mounted drive whose INFO_UF2.TXT says "
+                        "Board-ID: RP2350; a board running MicroPython on USB is restarted into BOOTSEL first)")
+    p.add_argument("--uf2", type=Path, metavar="FILE",
+                   help="another UF2 to write (default: the RoboRay image, "
+                        "tools/roboray_micropython/pico2/roboray-pico2.uf2)")
+    p.add_argument("--no-wait", action="store_true",
+                   help="stop after the copy: do not wait for the board to come back as MicroPython")
+    p.add_argument("--drive-timeout", type=positive, default=30.0, metavar="S",
+                   help="seconds to wait for the BOOTSEL drive, and for the board back on USB (default 30)")
+    p.add_argument("--timeout", type=positive, default=10.0, metavar="S",
+                   help="seconds the board may stay silent on USB before it counts as not answering (default 10)")
     add_json(p)
 
     p = command(sub, "logs", do_logs, "copy the board's flight logs (/logs/*.BIN) over USB, much faster than the radio")
