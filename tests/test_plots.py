@@ -105,11 +105,19 @@ def test_stability_map_panels_say_something_and_explain_grey():
         assert len(panels) == 4
         titles = [ax.get_title() for ax in panels]
         assert len(set(titles)) == 4, titles
+        axis = result["axis_deg"]
         for ax in panels:
             image = ax.get_images()[0]
             data = np.ma.masked_invalid(image.get_array())
             assert data.count() > 0 and data.max() > data.min(), ax.get_title()   # no blank panel
-            assert legend_labels(ax)[0].startswith("grey: "), ax.get_title()
+            # grey named in the legend exactly where the panel has grey cells
+            grey = bool(np.ma.getmaskarray(data).any())
+            named = ax.get_legend() is not None and any(t.startswith("grey: ") for t in legend_labels(ax))
+            assert named == grey, ax.get_title()
+            # a tick on each cell, nothing drawn past the wings' 0..90 deg travel
+            assert list(ax.get_xticks()) == axis and list(ax.get_yticks()) == axis
+            assert tuple(ax.get_xlim()) == tuple(ax.get_ylim()) == (0.0, 90.0)
+        assert any(ax.get_legend() is None for ax in panels)      # a panel without grey has no grey entry
         left = [ax for ax in panels if "no drag" in ax.get_title()]
         assert len(left) == 2
         # the second slice has configurations with no straight fall: grey, and the legend says why

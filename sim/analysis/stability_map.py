@@ -127,6 +127,16 @@ def figure(result: dict):
     axis = np.array(result["axis_deg"])
     step = axis[1] - axis[0] if len(axis) > 1 else 1.0
     extent = (axis[0] - step / 2, axis[-1] + step / 2, axis[0] - step / 2, axis[-1] + step / 2)
+
+    def cells(ax):
+        # a tick on each cell's wing angle, and the axes end at the grid's
+        # first and last angles (0 and the 90 deg wing limit): the outer
+        # cells are half cells, nothing is drawn past the wings' travel
+        ticks = axis if len(axis) <= 10 else axis[::int(np.ceil(len(axis) / 10))]
+        ax.set_xticks(ticks)
+        ax.set_yticks(ticks)
+        ax.set_xlim(axis[0], axis[-1])
+        ax.set_ylim(axis[0], axis[-1])
     slices = result["slices"]
     fig, axes = plt.subplots(len(slices), 2, figsize=(12, 5.2 * len(slices)), squeeze=False)
     drag_all = np.concatenate([np.ravel(np.array(sl["trim_max_real_eig"], float)) for sl in slices.values()])
@@ -144,30 +154,35 @@ def figure(result: dict):
                        vmax=float(finite.max()) if finite.size and finite.max() > finite.min() else None)
         scale = np.nanmax(np.abs(grows)) if np.isfinite(grows).any() else 1.0
         unstable = np.isfinite(grows) & (grows > result.get("spectral_tolerance", 1e-6) * max(1.0, scale))
-        handles = [Patch(facecolor="lightgrey", label=NO_EQUILIBRIUM)]
+        # grey in the legend only where the panel has grey cells
+        handles = [Patch(facecolor="lightgrey", label=NO_EQUILIBRIUM)] if not np.isfinite(hz).all() else []
         if unstable.any():
             for i, j in zip(*np.nonzero(unstable)):
                 ax.add_patch(Rectangle((axis[j] - step / 2, axis[i] - step / 2), step, step, fill=False,
                                        hatch="xx", lw=0.0))
             handles.append(Patch(facecolor="none", hatch="xx", label="unstable: a real part > 0"))
+        cells(ax)
         ax.set_xlabel(sl["x_label"])
         ax.set_ylabel(sl["y_label"])
         ax.set_title("%s\nno drag (reduced model, ch. 3), straight fall at %g m/s"
                      % (sl["title"], result["v3_reduced"]), fontsize=9)
         fig.colorbar(im, ax=ax, label="slowest tilt oscillation (Hz)")
-        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
+        if handles:
+            ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
 
         ax = axes[row, 1]
         drag = np.array(sl["trim_max_real_eig"], float)
         cmap = matplotlib.colormaps["RdBu_r"].with_extremes(bad="lightgrey")
         im = ax.imshow(np.ma.masked_invalid(drag), origin="lower", extent=extent, cmap=cmap, aspect="auto",
                        norm=TwoSlopeNorm(vcenter=0.0, vmin=-lim, vmax=lim))
+        cells(ax)
         ax.set_xlabel(sl["x_label"])
         ax.set_ylabel(sl["y_label"])
         ax.set_title("%s\nwith drag, the settled descent (neutral spin left out)" % sl["title"], fontsize=9)
         fig.colorbar(im, ax=ax, label="largest real part of the eigenvalues (1/s)\nred: unstable, blue: damped")
-        ax.legend(handles=[Patch(facecolor="lightgrey", label=NO_TRIM)], loc="upper center",
-                  bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
+        if not np.isfinite(drag).all():
+            ax.legend(handles=[Patch(facecolor="lightgrey", label=NO_TRIM)], loc="upper center",
+                      bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
     fig.suptitle("RoboRay stability over wing configurations")
     fig.tight_layout()
     return fig
