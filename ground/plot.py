@@ -41,39 +41,52 @@ def series(data: bytes) -> dict[str, Any]:
 
 def plot(data: bytes, out_png: str, title: str = "") -> dict[str, int]:
     """Draw the four panels into ``out_png``; samples per series."""
+    import matplotlib.pyplot as plt
+
+    fig, counts = figure(data, title)
+    fig.savefig(out_png, dpi=100)
+    plt.close(fig)
+    return counts
+
+
+def figure(data: bytes, title: str = "") -> tuple[Any, dict[str, int]]:
+    """The four panels as a matplotlib figure, and the samples per series.
+    Lines break where the radio brought nothing (a dive loses the link
+    below a few metres) and where the heading wraps through +-180 degrees."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from roboray.ground.series import broken
+
     s = series(data)
     counts = {k: len(v[0]) for k, v in s.items()}
     if not any(counts.values()):
         raise ValueError("no ATTITUDE, LOCAL_POSITION_NED or NAMED_VALUE_FLOAT messages in the log")
-    fig, axes = plt.subplots(4, 1, figsize=(9, 10), sharex=True)
+    fig, axes = plt.subplots(4, 1, figsize=(10, 10), sharex=True)
     ax = axes[0]
-    ax.plot(*s["depth"], label="depth")
+    ax.plot(*broken(*s["depth"]), label="depth")
     ax.set_ylabel("depth (m)")
     ax.invert_yaxis()
     ax = axes[1]
     for k in ("roll", "pitch", "yaw"):
-        ax.plot(*s[k], label=k)
+        ax.plot(*broken(*s[k], wrap=360.0 if k == "yaw" else None), label=k)
     ax.set_ylabel("attitude (deg)")
     ax = axes[2]
     for k, label in (("vn", "north"), ("ve", "east"), ("vd", "down")):
-        ax.plot(*s[k], label=label)
+        ax.plot(*broken(*s[k]), label=label)
     ax.set_ylabel("velocity (m/s)")
     ax = axes[3]
     for i in range(1, 5):
-        ax.plot(*s["wing%d" % i], label="wing %d" % i)
+        ax.plot(*broken(*s["wing%d" % i]), label="wing %d" % i)
     ax.set_ylabel("wing angle (deg)")
     ax.set_xlabel("time (s)")
     for ax in axes:
         ax.grid(True, alpha=0.3)
         if ax.lines:
-            ax.legend(loc="upper right", fontsize="small")
+            # beside the panel: over it, the legend hid the data
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize="small")
     fig.suptitle(title or "RoboRay telemetry")
     fig.tight_layout()
-    fig.savefig(out_png, dpi=100)
-    plt.close(fig)
-    return counts
+    return fig, counts
