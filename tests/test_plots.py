@@ -254,6 +254,15 @@ def test_sil_mode_rows_come_from_the_names_and_events_never_overlap():
         labels = legend_labels(ax)
         assert "released at 9.06 s" in labels and "landed at 16.62 s" in labels
         assert "no firmware (reset)" in labels
+        # the armed and disarmed swatches are bars as drawn: the width of
+        # the state, the colour of a row drawn in that state (none is grey)
+        handles = ax.get_legend().legend_handles
+        swatch = {h.get_label(): h for h in handles}
+        bars = [ln for ln in ax.get_lines() if len(ln.get_xdata()) == 2 and ln.get_ydata()[0] == ln.get_ydata()[1]]
+        for label, width in (("armed: thick bar", 6), ("disarmed: thin bar", 2)):
+            h = swatch[label]
+            assert h.get_linewidth() == width
+            assert any(b.get_linewidth() == width and b.get_color() == h.get_color() for b in bars), label
         assert not {t.get_text() for t in ax.texts} & {"released", "landed"}
         fig.canvas.draw()
         boxes = [t.get_window_extent() for t in ax.texts]

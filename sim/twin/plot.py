@@ -144,6 +144,7 @@ def _mode_rows(ax: Any, modes: list, arming: list, end: float, names: list) -> l
         return now
 
     off = False
+    held = {True: {}, False: {}}    # seconds in each row, armed and disarmed
     for a, b in zip(cuts[:-1], cuts[1:]):
         mode = at(modes, a)
         if mode == NO_FIRMWARE:
@@ -152,10 +153,18 @@ def _mode_rows(ax: Any, modes: list, arming: list, end: float, names: list) -> l
         elif mode in names:
             y = names.index(mode)
             armed = at(arming, a) == "armed"
+            held[armed][y] = held[armed].get(y, 0.0) + (b - a)
             ax.plot([a, b], [y, y], lw=6 if armed else 2, alpha=1.0 if armed else 0.6, solid_capstyle="butt",
                     color="C%d" % y)
-    handles = [Line2D([], [], lw=6, color="0.3", label="armed"), Line2D([], [], lw=2, color="0.3", alpha=0.6,
-                                                                         label="disarmed")]
+    # Each swatch is a bar as the plot draws it: the width says armed or
+    # not, in the colour of the row the run spent longest in that state (a
+    # grey swatch would read as the grey of "no firmware", and no bar is
+    # grey); a state the run never had gets no swatch.
+    handles = []
+    for armed, label, lw, alpha in ((True, "armed: thick bar", 6, 1.0), (False, "disarmed: thin bar", 2, 0.6)):
+        if held[armed]:
+            y = max(held[armed], key=held[armed].get)
+            handles.append(Line2D([], [], lw=lw, alpha=alpha, color="C%d" % y, label=label))
     if off:
         handles.append(Patch(color="0.85", label="no firmware (reset)"))
     return handles
