@@ -140,3 +140,14 @@ def test_sil_radio_status_on_the_pty_for_pymavlink(tmp_path):
     assert proc.returncode == 0, "".join(err)
     report = json.loads(out)
     assert report["radio_model"] == "sik-433" and report["link_lost_depth_m"] is None
+
+
+def test_sil_text_says_where_the_link_went(capsys):
+    from roboray.sim.cli import main
+
+    assert main(["sil", "--scenario", "target-landing", "--interpreter", "cpython", "--water", "sea", "--depth", "2",
+                 "--target", "0.5,0"]) == 0
+    out = capsys.readouterr().out
+    line = next(ln for ln in out.splitlines() if ln.startswith("radio link"))
+    assert line.startswith("radio link (hc12-433, 4.5 S/m water, reach 0.11 m): lost below 0.1")
+    assert "fixes used" in line and "s without it" in line
