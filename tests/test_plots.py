@@ -213,7 +213,8 @@ def test_fly_and_thesis_figures_name_the_wings():
     fig = flight_figure(flight)
     try:
         wings = [ax for ax in fig.axes if ax.get_ylabel() == "wing angle (deg)"][0]
-        assert legend_labels(wings) == list(WINGS)
+        # every wing named once (wings at one angle share a line: "wing 2 = wing 4")
+        assert sorted(sum((label.split(" = ") for label in legend_labels(wings)), [])) == list(WINGS)
         check_style(fig)
     finally:
         plt.close(fig)
@@ -224,6 +225,45 @@ def test_fly_and_thesis_figures_name_the_wings():
         labels = sum((legend_labels(ax) for ax in fig.axes if ax.get_legend()), [])
         assert set(WINGS) <= set(labels) and "wing 2, K_v2 = 1" in labels
         check_style(fig)
+    finally:
+        plt.close(fig)
+
+
+def label_overlaps(fig) -> list:
+    """(axis label, tick label) pairs drawn over each other."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    out = []
+    for ax in fig.axes:
+        for label in (ax.xaxis.label, ax.yaxis.label):
+            if not label.get_text():
+                continue
+            box = label.get_window_extent(renderer)
+            for other in fig.axes:
+                for tick in other.get_xticklabels() + other.get_yticklabels():
+                    if tick.get_text() and tick.get_visible() and box.overlaps(tick.get_window_extent(renderer)):
+                        out.append((label.get_text(), tick.get_text()))
+    return out
+
+
+@pytest.mark.parametrize("mode", ["velocity", "target", "attitude"])
+def test_fly_figure_labels_clear_of_the_ticks_and_wings_at_one_angle_drawn_once(mode):
+    from roboray.sim import flight as F
+    from roboray.sim.commands.control import flight_figure
+
+    kw = {"attitude": {"attitude_deg": (10.0, 0.0)}, "target": {"target": (1.2, 1.6)}}.get(mode, {})
+    flight = F.fly(F.FlightSpec(mode=mode, truth=True, max_flight_s=5.0, **kw))
+    fig = flight_figure(flight)
+    try:
+        assert label_overlaps(fig) == []
+        right = fig.axes[1:]
+        xs = {round(ax.yaxis.label.get_position()[0], 6) for ax in right}
+        assert len(xs) == 1                                   # the right column's labels in one line
+        wings = [ax for ax in fig.axes if ax.get_ylabel() == "wing angle (deg)"][0]
+        ys = [line.get_ydata() for line in wings.get_lines()]
+        for i in range(len(ys)):
+            for j in range(i):
+                assert not np.allclose(ys[i], ys[j]), legend_labels(wings)   # none hidden under another
     finally:
         plt.close(fig)
 

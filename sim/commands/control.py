@@ -114,7 +114,7 @@ def flight_figure(flight, title: str | None = None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from roboray.sim.plots import WING_STYLES, WINGS
+    from roboray.sim.plots import WING_STYLES, WINGS, plot_series
 
     spec = flight.spec
     t = flight.t
@@ -150,8 +150,7 @@ def flight_figure(flight, title: str | None = None):
     ax.set_ylabel("horizontal velocity (m/s)")
     ax.legend(loc="best", fontsize=8, ncol=2)
     ax = fig.add_subplot(grid[2, 1])
-    for k in range(4):
-        ax.plot(t, np.degrees(flight.wings[:, k]), lw=1.0, ls=WING_STYLES[k], label=WINGS[k])
+    plot_series(ax, t, np.degrees(flight.wings).T, WINGS, WING_STYLES)   # wings at one angle: one line
     ax.set_ylabel("wing angle (deg)")
     ax.set_xlabel("time since release (s)")
     ax.legend(loc="best", fontsize=8, ncol=4)
@@ -162,6 +161,8 @@ def flight_figure(flight, title: str | None = None):
             title += ": landed %.2f m from the target" % m["landing_error_m"]
     fig.suptitle(title)
     fig.tight_layout()
+    # the right column's labels in one line, clear of the widest tick numbers
+    fig.align_ylabels(fig.axes[1:])
     return fig
 
 
