@@ -62,6 +62,7 @@ from array import array
 
 from roboray.firmware.flightlog import dataflash as df
 from roboray.firmware.flightlog.dataflash import HEAD1, HEAD2, Record
+from roboray.shared import modes as modes_mod
 from roboray.shared import quat
 from roboray.shared.params import TYPE_INT32, TYPE_UINT8
 
@@ -86,7 +87,13 @@ WING = Record(155, "WING", "Qcccc", "TimeUS,Cmd1,Cmd2,Cmd3,Cmd4", "sdddd", "FBBB
 EST = Record(156, "EST", "Qffffffff", "TimeUS,PN,PE,PD,VN,VE,VD,TN,TE", "smmmnnnmm", "F00000000")
 PM = Record(157, "PM", "QHHIHH", "TimeUS,NLon,NLoop,MaxT,Load,Drop", "s--s%-", "F--FA-")
 FIX = Record(158, "FIX", "QfffI", "TimeUS,N,E,D,Age", "smmms", "F000C")
-MODE = Record(159, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn", "s---", "F---")
+# Mode is RoboRay's name of the mode, ModeNum HEARTBEAT's custom_mode (the
+# ArduSub number ground stations map). A name, not ArduPilot's one-byte
+# number: pymavlink's DFReader shows a text Mode as it is (mavflightmodes.py,
+# MAVExplorer), where it would map a number through the table of the
+# vehicle type it guesses, ArduPlane's for a log that names no ArduPilot
+# vehicle (QLOITER, TRAINING).
+MODE = Record(159, "MODE", "QNBB", "TimeUS,Mode,ModeNum,Rsn", "s---", "F---")
 MSG = Record(160, "MSG", "QZ", "TimeUS,Message", "s-", "F-")
 EV = Record(161, "EV", "QB", "TimeUS,Id", "s-", "F-")
 ERR = Record(162, "ERR", "QBB", "TimeUS,Subsys,ECode", "s--", "F--")
@@ -102,6 +109,10 @@ B_SERVO = const(16)
 B_EST = const(32)
 B_PM = const(64)
 B_FIX = const(128)
+
+#: MODE's name field by state number (modes.NAMES), made once: a record packs these
+_MODE_NAMES = tuple(n.encode() for n in modes_mod.NAMES)
+_NO_MODE = b"MODE?"
 
 #: EV ids (ArduPilot's LogEvent numbers)
 EV_ARMED = const(10)
@@ -335,8 +346,9 @@ class FlightLog:
         o = w.reserve(MODE.length)
         if o >= 0:
             self._now()
+            state = modes_mod.from_custom(number)
             struct.pack_into(MODE.pack, w.buf, o, HEAD1, HEAD2, MODE.type_id, w.t0, w.t1, w.t2, w.t3,
-                             number, number, reason)
+                             _MODE_NAMES[state] if state >= 0 else _NO_MODE, number, reason)
 
     def event(self, ev):
         if not self.logging or self._hdr >= 0:
