@@ -47,8 +47,10 @@ BARO    10 Hz   Alt (m, minus the depth), pressure (Pa), temperature [3]
 RCOU     5 Hz   servo pulses (us) [4]
 WING     5 Hz   commanded wing angles (deg) [4]: the servos report no angle,
                 so the command is what is known
-EST     10 Hz   position, velocity (NED, m, m/s) and target [5]: the glide
-                settles in seconds
+EST     10 Hz   position, velocity (NED, m, m/s), target and the horizontal
+                position's and velocity's variances per axis (PV m^2, VV
+                m^2/s^2: they grow while the position is dead-reckoned
+                without fixes) [5]: the glide settles in seconds
 PM       1 Hz   overruns, slots, longest slot, load, drops [6] (no free
                 heap: ``gc.mem_free()`` walks the whole heap, ~23 ms on a Pico 2)
 FIX     each    a position fix as it arrives: N, E, D, its age [7]
@@ -84,7 +86,7 @@ MAG = Record(152, "MAG", "QBfff", "TimeUS,I,MagX,MagY,MagZ", "s#GGG", "F-000")
 BARO = Record(153, "BARO", "QBfff", "TimeUS,I,Alt,Press,Temp", "s#mPO", "F-000")
 RCOU = Record(154, "RCOU", "QHHHH", "TimeUS,C1,C2,C3,C4", "sYYYY", "F0000")
 WING = Record(155, "WING", "Qcccc", "TimeUS,Cmd1,Cmd2,Cmd3,Cmd4", "sdddd", "FBBBB")
-EST = Record(156, "EST", "Qffffffff", "TimeUS,PN,PE,PD,VN,VE,VD,TN,TE", "smmmnnnmm", "F00000000")
+EST = Record(156, "EST", "Qffffffffff", "TimeUS,PN,PE,PD,VN,VE,VD,TN,TE,PV,VV", "smmmnnnmm--", "F0000000000")
 PM = Record(157, "PM", "QHHIHH", "TimeUS,NLon,NLoop,MaxT,Load,Drop", "s--s%-", "F--FA-")
 FIX = Record(158, "FIX", "QfffI", "TimeUS,N,E,D,Age", "smmms", "F000C")
 # Mode is RoboRay's name of the mode, ModeNum HEARTBEAT's custom_mode (the
@@ -503,8 +505,9 @@ class FlightLog:
                 g = t.target_ned
                 o = w.reserve(EST.length)
                 if o >= 0:
+                    r = t.var_ned
                     struct.pack_into(EST.pack, w.buf, o, HEAD1, HEAD2, EST.type_id, w.t0, w.t1, w.t2, w.t3,
-                                     p[0], p[1], p[2], v[0], v[1], v[2], g[0], g[1])
+                                     p[0], p[1], p[2], v[0], v[1], v[2], g[0], g[1], r[0], r[3])
         elif n == 9 and mask & B_PM:     # 1 Hz
             self._pm()
         # failsafes raised and cleared
