@@ -29,7 +29,8 @@ condition lasts: only its next appearance acts again.
 bit   failsafe         condition                                        parameters             default
 ====  ===============  ===============================================  =====================  =======
 0     link lost        no ground heartbeat for FS_GCS_TIMEOUT s, after  FS_GCS_ENABLE,         warn
-                       one was seen (ArduSub's GCS failsafe)            FS_GCS_TIMEOUT
+                       one was seen (ArduSub's GCS failsafe), while no  FS_GCS_TIMEOUT,
+                       deeper than FS_GCS_DEPTH (below)                 FS_GCS_DEPTH
 1     leak             the leak probe, debounced and latched            FS_LEAK_ENABLE         FAILSAFE
 2     battery low      pack below BATT_LOW_VOLT for BATT_LOW_TIMER s    BATT_FS_LOW_ACT        warn
 3     estimator        armed and an estimate the mode needs (attitude,  FS_EKF_ACTION,         FAILSAFE
@@ -55,6 +56,22 @@ bit   failsafe         condition                                        paramete
                        open or shorted divider)
 ====  ===============  ===============================================  =====================  =======
 
+The link expected lost (issue 27): radio barely crosses water (the
+buildable vehicle's 433 MHz HC-12 holds its link to ~5 m in fresh water,
+~0.1 m in the sea: ``roboray-sim radio-reach``), so a dive below that is
+planned without the link: everything it needs (mode, target, mission) is on
+board before release, and the estimate dead-reckons. A link lost while the
+estimated depth is beyond ``FS_GCS_DEPTH`` is therefore no failsafe: its
+bit stays clear and nothing acts; the vehicle says "link lost below N m,
+expected" once (a warning), as it goes below FS_GCS_DEPTH armed (while
+the link still carries it to the operator) or, if it had not, when it
+finds the link gone there, and "link regained" when a ground heartbeat
+arrives again (telemetry, fixes and commands then resume by themselves:
+the endpoint never stopped sending, and answers the returning ground
+station's heartbeat at once). Shallower than FS_GCS_DEPTH a lost link is
+the failsafe as before, and once that has acted it holds until the link
+is back, whatever the depth.
+
 A sensor's condition (depth, IMU, compass, battery monitor) counts once
 its driver has read unhealthy for ``SENSOR_CONFIRM_MS`` (200 ms) in a row:
 the slots after a planned stall (a flash save, up to 150 ms) read stale
@@ -72,7 +89,8 @@ checks the mode it arms in; ``ARMING_CHECK`` 0 skips them): no leak, IMU, depth 
 low and its monitor working, attitude and depth estimates valid. Mode checks
 (``mode_check(mode)``): ATTITUDE, VELOCITY and TARGET need a controller in
 the firmware and a valid attitude; VELOCITY and TARGET a valid position;
-TARGET a target. A refusal returns a ``shared/modes.py`` reason (sent in
+TARGET a target (armed in TARGET without one: "PreArm: TARGET mode has no
+target", the dive must not leave without it). A refusal returns a ``shared/modes.py`` reason (sent in
 COMMAND_ACK and as a STATUSTEXT); details beyond those reasons go out as a
 "PreArm: ..." STATUSTEXT first, as ArduPilot words them.
 
@@ -175,6 +193,8 @@ _ARM_BLOCKERS = (1 << LEAK) | (1 << IMU) | (1 << DEPTH) | (1 << COMPASS) | (1 <<
 _PREARM_DEPTH = "PreArm: no depth estimate yet"
 _PREARM_EKF = "PreArm: estimator inconsistent"
 _NO_CONTROLLER = "no controller in this firmware"
+_PREARM_TARGET = "PreArm: TARGET mode has no target"
+_LINK_REGAINED = "link regained"
 
 
 def _ticks_diff(a, b):
@@ -233,6 +253,9 @@ class Failsafes:
                 raise ValueError("parameter %s is not declared" % ACTION_PARAMS[i])
             self._act_i[i] = j
         self._i_gcs_timeout = params.index("FS_GCS_TIMEOUT")
+        self._i_gcs_depth = params.index("FS_GCS_DEPTH")
+        if self._i_gcs_depth < 0:
+            raise ValueError("parameter FS_GCS_DEPTH is not declared")
         self._i_low_volt = params.index("BATT_LOW_VOLT")
         self._i_low_timer = params.index("BATT_LOW_TIMER")
         self._i_ekf_thresh = params.index("FS_EKF_THRESH")
@@ -263,6 +286,10 @@ class Failsafes:
         self._held_texts = tuple("FAILSAFE held: %s" % NAMES[i] for i in range(COUNT))
         self._armed = False           # armed at the last update
         self._arms = 0                # the operator's armings seen at the last update
+        self._deep_text = ""          # "link lost below N m, expected" (built with the parameters)
+        self._deep = False            # deeper than FS_GCS_DEPTH at the last update
+        self._deep_said = False       # and it has been said since the vehicle went below it
+        self._link_expected = False   # the link is lost, deeper than FS_GCS_DEPTH: no failsafe
 
     def action(self, i):
         """The configured action of failsafe ``i`` (``ACT_*``)."""
@@ -275,6 +302,7 @@ class Failsafes:
             if self.action(i) != ACT_OFF:
                 mask |= 1 << i
         self._enabled = mask
+        self._deep_text = "link lost below %g m, expected" % self.params.get(self._i_gcs_depth)
 
     # ---------------------------------------------------------- conditions
     def _conditions(self, now):
@@ -385,7 +413,7 @@ class Failsafes:
         self._health_bits()
         if _ticks_diff(now, self._t0) < GRACE_MS:
             return
-        raw = self._conditions(now)
+        raw = self._expected(self._conditions(now))
         self.raw = raw
         held = raw
         seen = self._seen_ms
@@ -427,6 +455,35 @@ class Failsafes:
         t = self.telemetry
         if t is not None:
             t.failsafe_flags = active
+
+    def _expected(self, raw):
+        """``raw`` without the link's bit while its loss is expected (deeper
+        than FS_GCS_DEPTH, the failsafe not acting already); says so once,
+        and says when the link is back."""
+        nav = self.nav
+        deep = nav.valid(nv.DEPTH_VALID) and nav.est.nav[0] > self.params.get(self._i_gcs_depth)
+        armed = self.modes is not None and self.modes.armed
+        if deep and not self._deep and armed and not self._deep_said:
+            # going below it: told while the link still carries it
+            self._deep_said = True
+            self._say(msg.MAV_SEVERITY_WARNING, self._deep_text)
+        elif not deep:
+            self._deep_said = False
+        self._deep = deep
+        if raw & (1 << LINK):
+            if deep and not self.active & (1 << LINK):
+                if not self._link_expected:
+                    self._link_expected = True
+                    if not self._deep_said:
+                        self._deep_said = True
+                        self._say(msg.MAV_SEVERITY_WARNING, self._deep_text)
+                return raw & ~(1 << LINK)
+            self._link_expected = False
+        elif self._link_expected:
+            self._link_expected = False
+            self._deep_said = False
+            self._say(msg.MAV_SEVERITY_NOTICE, _LINK_REGAINED)
+        return raw
 
     def _trigger(self, i):
         self.triggered[i] += 1
@@ -540,5 +597,9 @@ class Failsafes:
             return M.NO_POSITION
         t = self.telemetry
         if mode == M.TARGET and (t is None or not t.has_target):
+            if self.modes is not None and not self.modes.armed:
+                # arming in TARGET: the target must be on board before the
+                # dive leaves the link behind
+                self._say(msg.MAV_SEVERITY_WARNING, _PREARM_TARGET)
             return M.NO_TARGET
         return None

@@ -102,6 +102,17 @@ PARAMS = (
     ("VISO_DELAY_MS", TYPE_UINT16, 210, 0, 2000),       # ms from a fix's measurement to its arrival
 )
 
+#: The position stays valid while its variance per axis is below this (m^2):
+#: a 1-sigma of 0.5 m, the landing goal of a dive without fixes (issue 27).
+#: A dive below the radio's reach dead-reckons from its last fix, and its
+#: variance grows honestly (``shared/estimator/horizontal.py``): 0.04-0.07
+#: m^2 at the bottom of a 10 m dive with none after release (the
+#: estimator's own default, 0.0625, would have declared it invalid there
+#: and the estimator failsafe put a TARGET dive into FAILSAFE mode for
+#: what was planned). A start still needs a fix (the variance before one
+#: is 100 m^2).
+POSITION_VAR_MAX = 0.25
+
 # AHRS_ORIENTATION -> where each body axis comes from in the chip's axes:
 # (chip index, negate) for body x, y, z. Yaw 90 turns chip x onto body y.
 _ROTATIONS = {
@@ -187,7 +198,7 @@ class Navigation:
             imu_position=(_p(params, "INS_POS1_X"), _p(params, "INS_POS1_Y"), _p(params, "INS_POS1_Z")),
             port_position=(_p(params, "BARO_POS_X"), _p(params, "BARO_POS_Y"), _p(params, "BARO_POS_Z")),
             fluid_density=density, surface_pressure_pa=params.get(self._gnd),
-            mag_period_s=MAG_STEPS * 0.01)
+            mag_period_s=MAG_STEPS * 0.01, position_var_max=POSITION_VAR_MAX)
         self._rho_g = density * _G
         self.configure_compass()
         self.imu_samples = 0

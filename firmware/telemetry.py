@@ -6,8 +6,9 @@ keeps that object current, one stream's part at a time, just before the
 endpoint sends it (``firmware/link.py`` passes ``refresh`` as the
 endpoint's ``on_refresh``): ``fast()`` copies the attitude and rates with
 slice copies between ``array('f')`` buffers (no float boxed);
-``position()`` position and velocity (NED, from the estimator's ``nav``)
-and depth; ``sensors()`` pressure, temperature and the IMU in body axes;
+``position()`` position and velocity (NED, from the estimator's ``nav``),
+their variances (the estimator's ``cov``: north and east grow while the
+position is dead-reckoned without fixes) and depth; ``sensors()`` pressure, temperature and the IMU in body axes;
 ``servo()`` wing angles and pulses; ``power()`` battery and loop load.
 ``fill()`` does all but ``fast()``. Failsafe flags and the SYS_STATUS sensor bits
 are written by ``firmware/failsafe.py`` as it evaluates them.
@@ -17,7 +18,15 @@ current sensor, and a Li-ion pack's voltage under a servo load says little
 about its charge.
 """
 
+from roboray.shared.estimator import health as _h
+
 _RAD_TO_DEG = 57.29577951308232
+_COV_NORTH = _h.COV_NORTH
+_COV_EAST = _h.COV_EAST
+_COV_DEPTH = _h.COV_DEPTH
+_COV_VN = _h.COV_VN
+_COV_VE = _h.COV_VE
+_COV_VZ = _h.COV_VZ
 
 # Stream numbers (shared/mavlink/endpoint.py): what ``refresh`` is called with
 _ATTITUDE = 0
@@ -58,9 +67,18 @@ class Reporter:
         t.rates[0:3] = est.rates
 
     def position(self):
-        """Position and velocity (NED), depth."""
+        """Position and velocity (NED), their variances, depth."""
         t = self.t
-        n = self.nav.est.nav
+        est = self.nav.est
+        c = est.cov
+        r = t.var_ned
+        r[0] = c[_COV_NORTH]
+        r[1] = c[_COV_EAST]
+        r[2] = c[_COV_DEPTH]
+        r[3] = c[_COV_VN]
+        r[4] = c[_COV_VE]
+        r[5] = c[_COV_VZ]
+        n = est.nav
         p = t.pos_ned
         p[0] = n[2]
         p[1] = n[3]

@@ -33,6 +33,9 @@ FAILSAFE = (
     # actions (firmware/failsafe.py): 0 off, 1 warn, 2 disarm, 3 FAILSAFE mode
     ("FS_GCS_ENABLE", TYPE_UINT8, 1, 0, 3),          # action when the ground falls silent
     ("FS_GCS_TIMEOUT", TYPE_REAL32, 5.0, 1.0, 120.0),  # s without a ground heartbeat
+    # m: deeper than this a lost link is expected and only reported (issue 27): the
+    # buildable vehicle's HC-12 holds its link to 5.2 m in fresh water (sim/radio)
+    ("FS_GCS_DEPTH", TYPE_REAL32, 5.0, 0.0, 300.0),
     ("FS_LEAK_ENABLE", TYPE_UINT8, 3, 0, 3),         # action on a leak
     ("FS_EKF_ACTION", TYPE_UINT8, 3, 0, 3),          # action when the estimate is invalid
     ("FS_EKF_THRESH", TYPE_REAL32, 0.8, 0.1, 5.0),   # estimator innovation ratio that trips it

@@ -76,6 +76,14 @@ _p("FS_GCS_ENABLE", "Ground link failsafe action", "",
    ACTIONS)
 _p("FS_GCS_TIMEOUT", "Ground link failsafe timeout", "s",
    "Time without a heartbeat from the ground station before the link-loss failsafe acts.")
+_p("FS_GCS_DEPTH", "Ground link expected-loss depth", "m",
+   "Deeper than this a lost ground link is expected (radio does not carry far through water) and the "
+   "link failsafe does not act: the vehicle says 'link lost below N m, expected' once, as it goes below "
+   "this depth or finds the link gone there, and 'link regained' when heartbeats return; shallower, "
+   "FS_GCS_ENABLE acts as usual, and once it has acted it holds until the link is back. Set it to the "
+   "depth the radio holds its link to in the water dived ('roboray-sim radio-reach'): the default is "
+   "the buildable vehicle's HC-12 in fresh water (5 m); about 0.1 m in sea water; 300 makes every "
+   "loss act.")
 _p("FS_LEAK_ENABLE", "Leak failsafe action", "", "What the vehicle does when the leak probe detects water.",
    ACTIONS)
 _p("FS_EKF_ACTION", "Estimator failsafe action", "",

@@ -597,8 +597,12 @@ class Estimator:
         P = hor.P
         c[_h.COV_NORTH] = P[0]
         c[_h.COV_EAST] = P[0]
-        c[_h.COV_VN] = P[2]
-        c[_h.COV_VE] = P[2]
+        # the velocity's: the bias (current) and the descent model's gain
+        # error on the speed it predicts now (``horizontal.MODEL_ERROR``)
+        x = hor.x
+        v2 = (x[4] * x[4] + x[5] * x[5]) * hor.model_var
+        c[_h.COV_VN] = P[2] + v2
+        c[_h.COV_VE] = P[2] + v2
         self._health(t)
 
     def _health(self, t_us):

@@ -11,6 +11,17 @@ the descent model (``descent_model``), ``c`` a slowly varying velocity bias
 The two axes see the same noise and the same fixes, so they share one 2x2
 covariance ``[Ppp, Ppc, Pcc]``.
 
+The descent model's own error is mostly a gain error: a vehicle whose added
+mass, drag or ``ell`` differ from the model's glides proportionally faster
+or slower, and a little off in direction, for the whole dive. Its position
+error is then that fraction of the distance dead-reckoned since the last
+fix, ``D``, so ``Ppp`` also grows by ``MODEL_ERROR^2 * |D|^2`` (per axis,
+added as ``|D|`` reaches new highs, never taken back): with fixes every
+second this is nothing (0.1 m between fixes: 4e-5 m^2, a tenth of a fix's
+variance), without them it is the uncertainty that matters (a dive in the
+sea, where the radio reaches ~0.1 m and no fix arrives after release). A
+fix restarts ``D``.
+
 A fix is measured at ``t_m`` and arrives later (the tracker's latency,
 0.2 s by default). A ring of the last ``history`` predicted positions (one
 per IMU step) gives the estimate at ``t_m``; the innovation there corrects
@@ -23,6 +34,19 @@ rewriting when a correction lands.
 from array import array
 
 from roboray.shared.estimator.ticks import ticks_diff
+
+#: Relative error (1 sigma, per axis) of the descent model's horizontal
+#: velocity over a dive. From the Monte Carlo's model errors (added mass,
+#: C_D, ell, servo lag each +-10 %, ``sim/montecarlo.py``) with no fix after
+#: the release, 10 m bottom: the estimate's error at landing, RMS (2-D),
+#: was 0.145, 0.166 and 0.254 m for targets 1, 2 and 4 m off (30, 40 and
+#: 30 runs; the vehicle reckoned 1.06, ~2.0 and 3.57 m). A part that grows
+#: with the distance and one that does not fit them: 0.065 |D| (2-D) and
+#: 0.105 m; per axis 0.046 |D|. The part that does not grow with the
+#: distance grows with time, which the bias's random walk (``bias_psd``)
+#: already covers, more than fully (its 23 s of dive alone give 0.14 m
+#: per axis).
+MODEL_ERROR = 0.046
 
 #: ``update()`` results.
 FIX_USED = 0
@@ -49,13 +73,17 @@ class Horizontal:
         Ring length in IMU steps; must cover the fix latency.
     tau:
         Lag of the descent model, s (``descent_model.TAU_S``).
+    model_error:
+        Relative error of the descent model's velocity (``MODEL_ERROR``).
     """
 
     def __init__(self, fix_var=4e-4, pos_psd=5e-5, bias_psd=5e-6, gate=4.0,
                  history=64, tau=0.4, reacquire=4, pos_var0=100.0,
-                 bias_var0=0.0025):
+                 bias_var0=0.0025, model_error=MODEL_ERROR):
         if fix_var <= 0.0 or pos_psd <= 0.0 or bias_psd < 0.0 or gate <= 0.0:
             raise ValueError("horizontal filter noise and gate must be positive")
+        if model_error < 0.0:
+            raise ValueError("model_error %r must be >= 0" % model_error)
         if history < 4:
             raise ValueError("history %r must be at least 4 steps" % history)
         #: [north m, east m, current north m/s, current east m/s,
@@ -93,6 +121,12 @@ class Horizontal:
         self._count = 0
         #: Sum of the corrections applied so far (north, east), m.
         self._s = [0.0, 0.0]
+        #: model_error^2: per axis, the model's gain error makes a velocity's
+        #: variance model_var * |v_model|^2 and a distance's model_var * |D|^2.
+        self.model_var = model_error * model_error
+        #: The position at the last fix (north, east), m, and the largest
+        #: squared distance dead-reckoned from it so far, m^2.
+        self.reckoned = array("f", [0.0, 0.0, 0.0])
 
     def set_gain(self, glide_gain, glide_x=0.0, glide_y=0.0):
         """Descent model for the current wings: tilt gain K and the body-frame
@@ -163,6 +197,15 @@ class Horizontal:
         P[0] = P[0] + T * (ppc + ppc + tpcc) + self._qp * T
         P[1] = ppc + tpcc
         P[2] = P[2] + self._qc * T
+        # the model's gain error over the distance reckoned since the last fix
+        x = self.x
+        pf = self.reckoned
+        dn = x[0] - pf[0]
+        de = x[1] - pf[1]
+        d2 = dn * dn + de * de
+        if d2 > pf[2]:
+            P[0] = P[0] + self.model_var * (d2 - pf[2])
+            pf[2] = d2
 
     def _find(self, t_meas):
         """Ring index of the newest entry at or before ``t_meas``, or -1."""
@@ -222,7 +265,16 @@ class Horizontal:
         P[0] = ppp - kp * ppp
         P[1] = ppc - kp * ppc
         P[2] = P[2] - kc * ppc
+        self._fixed_here()
         return FIX_USED
+
+    def _fixed_here(self):
+        """A fix has just placed the position: dead reckoning starts again."""
+        x = self.x
+        pf = self.reckoned
+        pf[0] = x[0]
+        pf[1] = x[1]
+        pf[2] = 0.0
 
     def _restart(self, k, zn, ze):
         """Put the position on the fix, carried to now by the dead-reckoned
@@ -243,3 +295,4 @@ class Horizontal:
         self.t_cov = self._t[self._head]
         self.initialised = True
         self.rejects = 0
+        self._fixed_here()
