@@ -80,3 +80,11 @@ def test_target_auto_deploys_to_lib_and_romfs_says_why_not(built, tmp_path):
     assert "no ROMFS partition" in only.stderr and "--target lib" in only.stderr
     assert "Traceback" not in only.stderr
     assert list((tmp_path / "fs").rglob("*.mpy")) == []
+    # the text: why once, and no advice to do what auto has done already
+    with VirtualBoard(fs_dir=tmp_path / "fs2", modules=twin_builtins()) as vb:
+        text = flash("deploy", "--port", vb.device, "--src", str(src), "--out", str(out), "--dry-run")
+    assert text.returncode == 0, text.stderr
+    said = (text.stdout + text.stderr).count("no ROMFS partition")
+    assert said == 1, text.stdout + text.stderr
+    assert "--target lib" not in text.stdout + text.stderr
+    assert "no ROMFS: the board on %s has no ROMFS partition 0" % vb.device in text.stdout

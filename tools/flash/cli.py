@@ -67,9 +67,9 @@ def do_deploy(args: argparse.Namespace) -> None:
                                       start_timeout_s=args.start_timeout)
             except RomfsUnavailable as exc:
                 if args.target == "romfs":
-                    raise
+                    raise RomfsUnavailable("%s; --target lib deploys to /lib instead" % exc) from None
+                # said once, in the report ("no ROMFS: ...; deployed to /lib")
                 why = str(exc)
-                log.info("%s: deploying to /lib", why)
         if report is None:
             report = deploy(board, result, dry_run=args.dry_run, rehash=args.rehash,
                             reset=not args.no_reset, start_timeout_s=args.start_timeout)

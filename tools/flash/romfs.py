@@ -176,8 +176,10 @@ def deploy_romfs(board: Board, build: Build, reset: bool = True, start_timeout_s
     sha = hashlib.sha256(img).hexdigest()
     q = query(board, partition)
     if not q.get("size"):  # the WebAssembly port reports one partition of 0 bytes
+        # why, not what to do: --target auto goes on to /lib by itself, and
+        # --target romfs adds the way out (cli.do_deploy)
         raise RomfsUnavailable("the board on %s has no ROMFS partition %d (MicroPython before 1.25, or a "
-                               "build without ROMFS); deploy to /lib with --target lib" % (board.device, partition))
+                               "build without ROMFS)" % (board.device, partition))
     if len(img) > q["size"]:
         raise RomfsUnavailable("the ROMFS image is %d bytes, the board's partition %d bytes" % (len(img), q["size"]))
     same = partition_sha(board, len(img), partition) == sha
