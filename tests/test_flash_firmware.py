@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -161,3 +162,27 @@ def test_deploy_says_when_the_board_runs_another_build(tmp_path):
     assert first.startswith("note: the board runs MicroPython ")
     assert "(RPI_PICO2)" in first and "ROBORAY_PICO2" in first and "`roboray-flash firmware`" in first
     assert "all verified" in proc.stdout
+
+
+@pytest.mark.micropython
+def test_a_running_board_is_sent_to_bootsel_over_the_raw_repl(tmp_path):
+    """``Board.bootloader`` runs ``machine.bootloader()`` on the board, as
+    ``mpremote bootloader`` does; here a ``machine`` module offered like a
+    built-in one records the call in the board's file system."""
+    from roboray.tools.flash.board import Board
+    from roboray.tools.micropython.virtual_board import VirtualBoard
+
+    machine = tmp_path / "machine.py"
+    machine.write_text("import os\n\ndef bootloader():\n"
+                       "    with open('/BOOTSEL', 'w') as f:\n        f.write('entered')\n    os.sync()\n")
+    fs = tmp_path / "fs"
+    with VirtualBoard(fs_dir=fs, modules=[machine]) as vb:
+        with Board(vb.device) as board:
+            ident = board.identity()
+            board.bootloader()
+        for _ in range(100):  # the board writes its files back once it waits for input again
+            if (fs / "BOOTSEL").exists():
+                break
+            time.sleep(0.1)
+    assert (fs / "BOOTSEL").read_text() == "entered"
+    assert ident["build"] == "RPI_PICO2" and ident["machine"] == "Raspberry Pi Pico2 with RP2350"
