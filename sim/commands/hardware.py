@@ -26,7 +26,7 @@ from __future__ import annotations
 import argparse
 
 from roboray.sim import progress
-from roboray.tools.cli import add_json, command, emit
+from roboray.tools.cli import CliError, add_json, command, emit, output_file
 
 #: Quoted cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (the emulated
 #: board counts 7.8 us: docs/design/board-time-calibration.md).
@@ -179,8 +179,39 @@ def do_bench_drivers(args: argparse.Namespace) -> None:
 
 
 def register(sub, bench) -> None:
+    p = command(sub, "drawing", do_drawing,
+                "the centre plate (dome seal, holes) and a wing as a 1:1 SVG in mm, from a vehicle file")
+    p.add_argument("--vehicle", metavar="FILE.py",
+                   help="vehicle file (default: the reference; sim/vehicles/buildable.py adds its holes)")
+    p.add_argument("--out", metavar="FILE.svg", type=output_file, required=True, help="the SVG to write")
+    add_json(p)
     p = command(bench, "drivers", do_bench_drivers,
                 "heap and time of the firmware's driver tasks on MicroPython, against the emulated board")
     p.add_argument("--calls", type=int, default=500, help="calls timed per task (default 500)")
     p.add_argument("--slots", type=int, default=1000, help="loop slots timed (default 1000, 10 s simulated)")
     add_json(p)
+
+
+def do_drawing(args: argparse.Namespace) -> None:
+    """``roboray-sim drawing``: the plate and a wing as a 1:1 SVG (``sim/drawing.py``)."""
+    from roboray.sim import drawing
+
+    try:
+        params, parts = drawing.load(args.vehicle)
+    except (ValueError, SyntaxError, NameError, TypeError) as exc:
+        raise CliError("cannot load vehicle %s: %s" % (args.vehicle, exc))
+    bad = drawing.check(params)
+    if bad:
+        raise CliError("%s: %s" % (args.vehicle or "the reference vehicle", "; ".join(bad)))
+    with open(args.out, "w", encoding="utf-8") as f:
+        f.write(drawing.svg(params, parts, title=args.vehicle or "reference vehicle"))
+    holes = drawing.through_holes(parts)
+    inner, outer = drawing.groove()
+    result = {"out": args.out, "plate_mm": round(1000.0 * params.plate_side, 1),
+              "wing_height_mm": round(1000.0 * params.wing_height, 1),
+              "oring": "AS568-041", "groove_mm": [round(inner, 2), round(outer, 2), drawing.GROOVE_DEPTH_MM],
+              "through_holes": [h[0] for h in holes]}
+    emit(args, result, lambda r: "wrote %s: plate %g mm square, wing %g mm high, O-ring %s in a %.2f-%.2f mm groove "
+                                 "%.2f mm deep, %d holes through the plate" % (
+                                     r["out"], r["plate_mm"], r["wing_height_mm"], r["oring"], *r["groove_mm"],
+                                     len(r["through_holes"])))
