@@ -26,7 +26,7 @@ from __future__ import annotations
 import argparse
 
 from roboray.sim import progress
-from roboray.tools.cli import CliError, add_json, command, emit, output_file
+from roboray.tools.cli import CliError, UsageError, add_json, command, emit, output_file
 
 #: Quoted cost of one ``c = a * b`` iteration on an RP2350 at 150 MHz (the emulated
 #: board counts 7.8 us: docs/design/board-time-calibration.md).
@@ -201,8 +201,8 @@ def do_drawing(args: argparse.Namespace) -> None:
     except (ValueError, SyntaxError, NameError, TypeError) as exc:
         raise CliError("cannot load vehicle %s: %s" % (args.vehicle, exc))
     bad = drawing.check(params)
-    if bad:
-        raise CliError("%s: %s" % (args.vehicle or "the reference vehicle", "; ".join(bad)))
+    if bad:   # a vehicle whose dome seal does not fit its plate: nothing to cut
+        raise UsageError("%s: %s" % (args.vehicle or "the reference vehicle", "; ".join(bad)))
     with open(args.out, "w", encoding="utf-8") as f:
         f.write(drawing.svg(params, parts, title=args.vehicle or "reference vehicle"))
     holes = drawing.through_holes(parts)
