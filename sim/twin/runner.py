@@ -524,11 +524,17 @@ class Twin:
         from roboray.sim.twin.world import World, WorldSpec
 
         params = load_params(options.vehicle).with_water(options.water)
-        spec = WorldSpec(bottom_depth=self.scenario.bottom_depth)
+        from roboray.sim.sensors.depth import Water
+
+        # the pressure grows with the water's density (sea water's 1025 kg/m^3),
+        # and the builder tells the firmware so (BARO_SPEC_GRAV, docs/user/calibration.md)
+        spec = WorldSpec(bottom_depth=self.scenario.bottom_depth, water=Water(density=params.rho))
         self.world = World(params, spec, options.seed, steps_per_frame=FRAME_US // STEP_US)
         for name, value in self.world.compass_params().items():
             if name not in options.params:   # what a calibration of this seed's compass stored
                 self._set(table, name, value)
+        if "BARO_SPEC_GRAV" not in options.params:
+            self._set(table, "BARO_SPEC_GRAV", params.rho / 1000.0)
         self.table = table
         self._param_image = encode(table)
         self._servo = []
