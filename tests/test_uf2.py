@@ -177,3 +177,14 @@ def test_recipe_and_board_config_are_committed():
         assert pin in recipe
     board_h = (here / "board" / "ROBORAY_PICO2" / "mpconfigboard.h").read_text()
     assert '#include "mpconfig_roboray.h"' in board_h
+
+
+def test_image_was_built_from_the_committed_configuration():
+    """The three builds share mpconfig_roboray.h; the UF2 records the one it
+    was compiled with, so a change there that the Pico 2 image lacks shows."""
+    header = Path(IMAGE_DIR).parent / "mpconfig_roboray.h"
+    sha = hashlib.sha256(header.read_bytes()).hexdigest()
+    assert "mpconfig_roboray.h" in (IMAGE_DIR / "BUILD.txt").read_text()
+    assert sha in (IMAGE_DIR / "BUILD.txt").read_text(), (
+        "tools/roboray_micropython/mpconfig_roboray.h changed since the Pico 2 UF2 was built: "
+        "rebuild it with tools/roboray_micropython/pico2/build.sh")

@@ -119,9 +119,13 @@ def do_status(args: argparse.Namespace) -> None:
     """Compare the board's files with the build (hashed on the board)."""
     from .deploy import status
 
+    from .firmware import build_note
+
     result = _build(args)
     with _board(args) as board:
         report = status(board, result)
+        report["board_build"] = board.identity()
+    report["firmware_note"] = build_note(report["board_build"])
     emit(args, report, _status_text)
 
 
@@ -138,6 +142,8 @@ def _status_text(r: dict) -> str:
     lines += ["  missing  " + p for p in r["missing"]]
     lines += ["  extra    " + p for p in r["extra"]]
     lines.append("up to date" if r["up_to_date"] else "not up to date: roboray-flash deploy")
+    if r.get("firmware_note"):
+        lines.append("note: " + r["firmware_note"])
     return "\n".join(lines)
 
 
