@@ -70,7 +70,12 @@ arrives again (telemetry, fixes and commands then resume by themselves:
 the endpoint never stopped sending, and answers the returning ground
 station's heartbeat at once). Shallower than FS_GCS_DEPTH a lost link is
 the failsafe as before, and once that has acted it holds until the link
-is back, whatever the depth.
+is back, whatever the depth. In salt water (``BARO_SPEC_GRAV`` above
+``SALT_SPEC_GRAV``, which the builder sets for the sea) FS_GCS_DEPTH counts
+as at most ``SEA_REACH_M``: at 4-5 S/m every radio's reach is a
+decimetre or so (``roboray-sim radio-reach --water sea``: 0.11 m for the
+HC-12 and the 915 MHz SiK, 0.14 m for the 433 MHz SiK), so a sea dive
+needs no change of FS_GCS_DEPTH from the fresh-water default.
 
 A sensor's condition (depth, IMU, compass, battery monitor) counts once
 its driver has read unhealthy for ``SENSOR_CONFIRM_MS`` (200 ms) in a row:
@@ -145,6 +150,7 @@ PARAMS = (
     ("FS_LOOP_MAX", TYPE_UINT16, 10, 1, 100),           # overrun slots in a second that count
     ("FS_LOOP_ACT", TYPE_UINT8, 1, 0, 3),
     ("FS_LOCKUP_ACT", TYPE_UINT8, 1, 0, 3),             # after a watchdog reset
+    ("BATT_PARK", TYPE_UINT8, 1, 0, 1),                 # 1: servos parked while disarmed with a low pack
 )
 
 GRACE_MS = const(2000)      # after start-up: drivers and estimator find their feet
@@ -163,6 +169,9 @@ DEPTH_REJECTED_MAX = const(8)
 #: the estimator coasts over it (ArduPilot likewise waits before its sensor
 #: and EKF failsafes act).
 SENSOR_CONFIRM_MS = const(200)
+
+_PARKED = "Battery low: servos parked (disarmed)"
+_UNPARKED = "Servos unparked"
 
 # Why FAILSAFE mode was entered (Modes.failsafe_cause), by bit.
 _CAUSES = (M.CHECK_FAILED, M.LEAK, M.LOW_BATTERY, M.CHECK_FAILED, M.SENSOR_FAULT, M.SENSOR_FAULT,
@@ -195,6 +204,11 @@ _PREARM_EKF = "PreArm: estimator inconsistent"
 _NO_CONTROLLER = "no controller in this firmware"
 _PREARM_TARGET = "PreArm: TARGET mode has no target"
 _LINK_REGAINED = "link regained"
+#: Specific gravity above which the water is taken for salt (brackish water
+#: of ~13 g/kg salinity, 1.01, already conducts ~2 S/m), and the depth to
+#: which a radio then reaches at most (m; see the module docstring).
+SALT_SPEC_GRAV = 1.01
+SEA_REACH_M = 0.1
 
 
 def _ticks_diff(a, b):
@@ -256,8 +270,21 @@ class Failsafes:
         self._i_gcs_depth = params.index("FS_GCS_DEPTH")
         if self._i_gcs_depth < 0:
             raise ValueError("parameter FS_GCS_DEPTH is not declared")
+        self._i_spec_grav = params.index("BARO_SPEC_GRAV")   # -1: not in this table (fresh water)
+        self._gcs_depth = 0.0                                # FS_GCS_DEPTH, capped in salt water
         self._i_low_volt = params.index("BATT_LOW_VOLT")
         self._i_low_timer = params.index("BATT_LOW_TIMER")
+        self._i_park = params.index("BATT_PARK")
+        #: The servos are parked (``Flight`` sends them no pulses): the pack
+        #: is low (BATT_LOW_VOLT for BATT_LOW_TIMER, whatever its action),
+        #: the vehicle disarmed and BATT_PARK 1. A vehicle left on the
+        #: bottom disarmed otherwise spends the pack holding flat wings
+        #: that rest on the bottom anyway; parked, each servo draws only
+        #: its idle current and the cells last until the vehicle is
+        #: recovered (docs/user/hardware.md, "Electrical safety"). Arming
+        #: gives the servos their pulses back (the arming check refuses a
+        #: low pack anyway).
+        self.parked = False
         self._i_ekf_thresh = params.index("FS_EKF_THRESH")
         self._i_depth_max = params.index("FS_DEPTH_MAX")
         self._i_loop_max = params.index("FS_LOOP_MAX")
@@ -302,7 +329,12 @@ class Failsafes:
             if self.action(i) != ACT_OFF:
                 mask |= 1 << i
         self._enabled = mask
-        self._deep_text = "link lost below %g m, expected" % self.params.get(self._i_gcs_depth)
+        p = self.params
+        d = p.get(self._i_gcs_depth)
+        if self._i_spec_grav >= 0 and p.get(self._i_spec_grav) > SALT_SPEC_GRAV and d > SEA_REACH_M:
+            d = SEA_REACH_M
+        self._gcs_depth = d
+        self._deep_text = "link lost below %g m, expected" % d
 
     # ---------------------------------------------------------- conditions
     def _conditions(self, now):
@@ -452,6 +484,11 @@ class Failsafes:
                     self._say(msg.MAV_SEVERITY_WARNING if a <= ACT_WARN else msg.MAV_SEVERITY_CRITICAL,
                               self._texts[i][a])
                     break
+        park = bool((raw >> BATTERY) & 1) and not self._armed and self.params.get_int(self._i_park) == 1
+        if park != self.parked:
+            self.parked = park
+            self._say(msg.MAV_SEVERITY_WARNING if park else msg.MAV_SEVERITY_NOTICE,
+                      _PARKED if park else _UNPARKED)
         t = self.telemetry
         if t is not None:
             t.failsafe_flags = active
@@ -461,7 +498,7 @@ class Failsafes:
         than FS_GCS_DEPTH, the failsafe not acting already); says so once,
         and says when the link is back."""
         nav = self.nav
-        deep = nav.valid(nv.DEPTH_VALID) and nav.est.nav[0] > self.params.get(self._i_gcs_depth)
+        deep = nav.valid(nv.DEPTH_VALID) and nav.est.nav[0] > self._gcs_depth
         armed = self.modes is not None and self.modes.armed
         if deep and not self._deep and armed and not self._deep_said:
             # going below it: told while the link still carries it

@@ -75,6 +75,7 @@ class Flight:
         self.controller = controller
         self._clock = clock
         self._n = 0
+        self._parked = False
         self._changes = modes.changes
         self._arms = modes.arms
         self._mode = modes.state
@@ -123,6 +124,12 @@ class Flight:
         else:
             self._control(mode, c)
         self.nav.est.wings(c[0], c[1], c[2], c[3])
+        if self.failsafes.parked:        # a low pack, disarmed: no pulses (firmware/failsafe.py)
+            if not self._parked:
+                self._parked = True
+                self.wings.off()
+            return
+        self._parked = False
         self.wings.update()
 
     def _control(self, mode, c):

@@ -82,8 +82,8 @@ _p("FS_GCS_DEPTH", "Ground link expected-loss depth", "m",
    "this depth or finds the link gone there, and 'link regained' when heartbeats return; shallower, "
    "FS_GCS_ENABLE acts as usual, and once it has acted it holds until the link is back. Set it to the "
    "depth the radio holds its link to in the water dived ('roboray-sim radio-reach'): the default is "
-   "the buildable vehicle's HC-12 in fresh water (5 m); about 0.1 m in sea water; 300 makes every "
-   "loss act.")
+   "the buildable vehicle's HC-12 in fresh water (5 m). In salt water (BARO_SPEC_GRAV above 1.01) it "
+   "counts as at most 0.1 m, about every radio's reach there. 300 makes every loss act (fresh water).")
 _p("FS_LEAK_ENABLE", "Leak failsafe action", "", "What the vehicle does when the leak probe detects water.",
    ACTIONS)
 _p("FS_EKF_ACTION", "Estimator failsafe action", "",
@@ -98,6 +98,11 @@ _p("BATT_FS_LOW_ACT", "Low battery failsafe action", "",
 _p("BATT_LOW_VOLT", "Low battery voltage", "V", "Pack voltage below which the battery counts as low.")
 _p("BATT_LOW_TIMER", "Low battery timer", "s",
    "Time the pack must stay below BATT_LOW_VOLT before the low-battery failsafe acts.")
+_p("BATT_PARK", "Park the servos on a low battery", "",
+   "1: while the pack is low (below BATT_LOW_VOLT for BATT_LOW_TIMER s) and the vehicle is disarmed, the "
+   "servos get no pulses and stop holding the wings, so a vehicle left on the bottom spends its pack on "
+   "the electronics only; arming gives them their pulses back. 0: they hold SERVO_SAFE_DEG.",
+   ((0, "Hold"), (1, "Park")))
 _p("FS_SENSOR_ACT", "Sensor failsafe action", "",
    "What the vehicle does when the IMU or the depth sensor fails.", ACTIONS)
 _p("FS_MAG_ACT", "Compass failsafe action", "", "What the vehicle does when the magnetometer fails.", ACTIONS)

@@ -240,3 +240,38 @@ def test_a_stall_fault_is_checked():
     for bad in ("stall:0@3", "stall:1000@3", "stall:2.5@3"):
         with pytest.raises(ValueError, match="stall"):
             faults.parse(bad)
+
+
+def test_a_low_pack_disarmed_parks_the_servos_and_arming_is_refused(tmp_path):
+    # the pack sags on the bottom; BATT_FS_LOW_ACT 2 disarms the resting
+    # vehicle, and disarmed with a low pack its servos get no pulses
+    # (BATT_PARK 1, the default): SERVO_OUTPUT_RAW reads 0 on the ground
+    from pymavlink import mavutil
+
+    tlog = tmp_path / "park.tlog"
+    r = run(Options(scenario="bottom-rest", interpreter="cpython", duration=30.0,
+                    faults=[faults.parse("battery-sag@16")], params={"BATT_LOW_TIMER": 2, "BATT_FS_LOW_ACT": 2},
+                    tlog=str(tlog)))
+    assert r["landed_at_s"] < 16.0 and names(r) == ["battery low"]
+    low = first(r, "battery low")
+    assert arming_since(r, low) == ["disarmed"]
+    assert "Battery low: servos parked (disarmed)" in texts(r)
+    parked = next(t for t, _, text in r["statustext"] if text.startswith("Battery low: servos parked"))
+    assert low <= parked <= low + 1.0                      # the next evaluation, 10 Hz, and the link
+    outputs = []
+    m = mavutil.mavlink_connection(str(tlog))
+    while True:
+        msg = m.recv_match(type="SERVO_OUTPUT_RAW")
+        if msg is None:
+            break
+        outputs.append((msg.time_usec / 1e6, [msg.servo1_raw, msg.servo2_raw, msg.servo3_raw, msg.servo4_raw]))
+    before = [o for t, o in outputs if t < low - 0.5]
+    after = [o for t, o in outputs if t > parked + 0.5]
+    assert before and all(min(o) > 0 for o in before)          # held, pulses going out
+    assert after and all(o == [0, 0, 0, 0] for o in after)      # parked: none
+
+
+def test_the_servos_hold_on_a_low_pack_with_park_off():
+    r = fly("battery-sag@12", params={"BATT_LOW_TIMER": 2, "BATT_FS_LOW_ACT": 2, "BATT_PARK": 0})
+    assert names(r) == ["battery low"]
+    assert not any(text.startswith("Battery low: servos parked") for text in texts(r))

@@ -148,5 +148,7 @@ class Wings:
         p[3] = s[3].set_angle(c[3])
 
     def off(self):
-        for s in self.servos:
-            s.off()
+        """No pulses to any servo (the telemetry's outputs read 0)."""
+        for k in range(4):
+            self.servos[k].off()
+            self.pulse_us[k] = 0
