@@ -71,6 +71,14 @@ def test_sik_radio_status_is_a_real_mavlink_frame_from_the_radio():
         assert m.rssi == water_link.sik_units(level) and m.remrssi == m.rssi
         assert m.noise < m.rssi
     assert wl.statuses() == (b"", b"")          # once a second
+    # below the reach: each radio counts what it failed to receive
+    deep = water_link.WaterLink(link_mod.make("sik-433", "sea"), seed=0)
+    deep.step(1.0, 1.0, 0.02)
+    assert not deep.crosses(b"\xfd" + bytes(20), 0) and not deep.crosses(b"\xfd" + bytes(20), 0)
+    assert not deep.crosses(b"\xfd" + bytes(20), 1)
+    to_ground, to_vehicle = (_frames(d)[0] for d in deep.statuses())
+    assert (to_ground.rxerrors, to_vehicle.rxerrors) == (2, 1)
+    assert to_ground.remrssi == 0 and to_ground.rssi == water_link.sik_units(deep.link.radio.noise_dbm)
     # the HC-12 is transparent: nothing of its own
     hc = water_link.WaterLink(link_mod.make("hc12-433", "fresh"), seed=0)
     hc.step(1.0, 0.5, 0.02)

@@ -127,8 +127,10 @@ class WaterLink:
         # the other radio's report crosses the air: while the link is down none does
         rem = heard if self.ok else 0
         out = []
+        # rxerrors: what each radio failed to receive (the ground's: the
+        # vehicle's sends, direction 0; the vehicle's: the ground's, 1)
         for k in (0, 1):
-            self._mav.radio_status_send(heard, rem, 100, noise, noise, self.chunks_lost[1 - k] & 0xFFFF, 0)
+            self._mav.radio_status_send(heard, rem, 100, noise, noise, self.chunks_lost[k] & 0xFFFF, 0)
             out.append(bytes(self._sink.data))
             self._sink.data.clear()
         return out[0], out[1]
