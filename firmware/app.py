@@ -315,7 +315,8 @@ class Vehicle:
         if self.log.ring_kb != want:
             print("log: a %d kB ring, the heap has no %d kB block free (LOG_FILE_BUFSIZE)"
                   % (self.log.ring_kb, want))
-        link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased, hidden=self.log.prepared)
+        link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased, hidden=self.log.prepared,
+                                   unflushed=self.log.unflushed)
         link.ep.on_text = self.log.msg
         # the build, first thing on the link and in the log, as ArduPilot
         # sends its version: a ground station sees which firmware it talks

@@ -126,6 +126,11 @@ class _Part:
         k = ofs // BLOCK
         if self.have[k]:
             return False
+        if len(data) < min(BLOCK, self.entry.size - ofs):
+            # a block short of what the list promised: the end of the file
+            # as the vehicle had it then (its last records were still
+            # reaching flash); asked again, not kept with zeros after it
+            return False
         self.f.seek(ofs)
         self.f.write(data[: self.entry.size - ofs])
         self.have[k] = 1

@@ -134,3 +134,47 @@ def test_a_watchdog_reset_mid_dive_leaves_a_readable_log_and_a_new_one_after_it(
             att.append(m.TimeUS / 1e6)
     # the board's clock restarts at the reset (about 21 s): from the resumed dive to its rest
     assert att and att[-1] - att[0] > 10.0
+
+
+def test_a_log_listed_right_after_the_disarm_downloads_to_its_listed_size(tmp_path):
+    # the ring still holds the dive's last records when the operator
+    # disarms: the list gives the size the log will have once they are on
+    # flash, and the download, however soon it starts, brings exactly that
+    got: dict = {}
+    done = threading.Event()
+
+    def on_radio(radio):
+        def ground():
+            link = None
+            try:
+                link = Link(radio.device, 57600)
+                link.wait_heartbeat(timeout=30)
+                while not (link.vehicle_heartbeat.base_mode & 128):
+                    link.wait_heartbeat(timeout=5)
+                while link.vehicle_heartbeat.base_mode & 128:
+                    link.wait_heartbeat(timeout=5)
+                first = list_logs(link)          # at once
+                got["listed"] = first[0].size
+                got["result"] = download(link, first[0], str(tmp_path / "dive.BIN"))
+                time.sleep(3.0)
+                got["later"] = list_logs(link)[0].size
+            except Exception as exc:  # reported by the assertions below
+                got["error"] = repr(exc)
+            finally:
+                if link is not None:
+                    link.close()
+                done.set()
+
+        threading.Thread(target=ground, daemon=True).start()
+
+    twin = Twin(Options(scenario="bottom-rest", radio="pty", speedup=1.0, duration=40.0,
+                        operator=[Action(16.0, "disarm")], board_fs=str(tmp_path / "board")),
+                on_radio=on_radio)
+    twin.run()
+    assert done.wait(30)
+    assert "error" not in got, got["error"]
+    assert got["result"]["size"] == got["listed"] == got["later"], got
+    mine = (tmp_path / "dive.BIN").read_bytes()
+    board = (tmp_path / "board" / "logs" / "00000001.BIN").read_bytes()
+    first = next((i for i, (x, y) in enumerate(zip(mine, board)) if x != y), None)
+    assert mine == board, (len(mine), len(board), first, got)

@@ -374,6 +374,17 @@ class FlightLog:
         dive's log yet, so a log list leaves it out."""
         return self.files.current if self._prep else 0
 
+    def unflushed(self, number):
+        """Bytes of log ``number`` still to reach flash: the ring's while it
+        is the dive's log being written, and the MSG that will tell of
+        dropped records. A log list right after a disarm then gives the size
+        the log will have, which its download reaches, not the part flushed
+        so far (the download then went past the listed size)."""
+        if number == 0 or number != self.files.current or self._prep:
+            return 0
+        w = self.w
+        return w.pending() + (MSG.length if w.dropped != self._told_dropped else 0)
+
     def erased(self):
         """The logs were erased (LOG_ERASE, disarmed): nothing waits for a file any more."""
         self.w.clear()

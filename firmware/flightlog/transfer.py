@@ -58,15 +58,18 @@ class LogTransfer:
     ``armed()`` says whether the vehicle is armed; ``on_erase()`` (the
     flight log's) is called after the logs were erased; ``hidden()`` gives
     a log number to leave out of lists (the flight log's ``prepared``: the
-    next dive's, its header alone), 0 for none."""
+    next dive's, its header alone), 0 for none; ``unflushed(n)`` the bytes
+    of log n still on their way to flash (the flight log's), which its
+    listed size includes."""
 
-    def __init__(self, ep, files, armed, on_erase=None, expect_delay=None, hidden=None):
+    def __init__(self, ep, files, armed, on_erase=None, expect_delay=None, hidden=None, unflushed=None):
         self.ep = ep
         self.files = files
         self.armed = armed
         self.on_erase = on_erase
         self.expect_delay = expect_delay
         self.hidden = hidden
+        self.unflushed = unflushed
         self._numbers = array("H", [0] * _MAX_LOGS)
         self._n = 0                 # logs in _numbers
         self._entry_next = -1       # index of the next LOG_ENTRY to send, -1: none
@@ -192,8 +195,10 @@ class LogTransfer:
             if self._entry_next >= 0:
                 i = self._entry_next
                 k = self._numbers[i]
-                self._send_entry(k, self._n, self._numbers[self._n - 1] if self._n else 0,
-                                 self.files.size(k))
+                size = self.files.size(k)
+                if size >= 0 and self.unflushed is not None:
+                    size += self.unflushed(k)
+                self._send_entry(k, self._n, self._numbers[self._n - 1] if self._n else 0, size)
                 self._entry_next = i + 1 if i < self._entry_last else -1
                 if self._entry_next < 0 and self._f is None:
                     self.sending = False
