@@ -159,3 +159,14 @@ def test_sil_text_says_where_the_link_went(capsys):
     line = next(ln for ln in out.splitlines() if ln.startswith("radio link"))
     assert line.startswith("radio link (hc12-433, 4.5 S/m water, reach 0.11 m): lost below 0.1")
     assert "fixes used" in line and "s without it" in line
+
+
+def test_a_signed_link_takes_the_radios_unsigned_radio_status():
+    # the radio's own RADIO_STATUS is never signed: the ground accepts it, as
+    # MAVProxy and ArduPilot do, and counts no bad frame
+    t = Twin(Options(scenario="passive-drop", interpreter="cpython", radio_model="sik-433", key="secret",
+                     duration=4))
+    r = t.run()
+    assert r["bad_frames_from_vehicle"] == 0
+    assert len(t.ground.seen.radio_status) >= 3
+    assert all(rssi > 150 for _, rssi, _, _, _ in t.ground.seen.radio_status)
