@@ -77,12 +77,9 @@ def test_free_code_reports_no_loop_time():
 
 @pytest.mark.micropython
 def test_the_same_seed_gives_the_same_tlog_with_board_time_charged(tmp_path):
-    from roboray.sim import twin
-
     paths = [tmp_path / ("run%d.tlog" % k) for k in range(2)]
-    with twin.interpreter() as mp:
-        reports = [run(Options(scenario="passive-drop", duration=12.0, tlog=str(p), board_model=model(nav=2500),
-                               board_time="model"),
-                       interpreter=mp) for p in paths]
+    # the twin's default interpreter (RoboRay MicroPython on the host)
+    reports = [run(Options(scenario="passive-drop", duration=12.0, tlog=str(p), board_model=model(nav=2500),
+                           board_time="model")) for p in paths]
     assert paths[0].read_bytes() == paths[1].read_bytes()
     assert reports[0]["slot_p99_ms"] == reports[1]["slot_p99_ms"] > 2.5

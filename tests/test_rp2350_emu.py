@@ -44,20 +44,52 @@ def test_exit_status_and_traceback(tmp_path):
     assert out.startswith("Traceback (most recent call last):\n") and out.endswith("ValueError: boom\n")
 
 
-def test_single_precision_floats(tmp_path):
-    out = ok("import struct\n"
-             "print(1.0 + 1e-8 == 1.0)\n"
-             "print(repr(0.1), repr(1 / 3))\n"
-             "print(struct.unpack('f', struct.pack('f', 0.1))[0] == 0.1)\n"
-             "print(struct.pack('f', 1 / 3) == struct.pack('<I', %d))\n"
-             % struct.unpack("<I", struct.pack("<f", 1 / 3))[0], tmp_path)
-    lines = out.split("\n")
+_FLOATS = ("import struct\n"
+           "print(1.0 + 1e-8 == 1.0)\n"
+           "print(repr(0.1), repr(1 / 3))\n"
+           "print(struct.unpack('f', struct.pack('f', 0.1))[0] == 0.1)\n"
+           "print(struct.pack('<f', 1 / 3).hex(), struct.pack('<f', 0.1).hex())\n")
+
+
+def test_single_precision_floats_stock(tmp_path):
+    """Stock (REPR_A): a float is an IEEE single, boxed; bit for bit float32."""
+    lines = ok(_FLOATS, tmp_path, build="stock").split("\n")
     assert lines[0] == "True"
     r01, r13 = lines[1].split()
     assert r01 == "0.1"
     assert struct.unpack("f", struct.pack("f", float(r13)))[0] == struct.unpack("f", struct.pack("f", 1 / 3))[0]
     assert len(r13) < 12   # a float32's digits, not a double's 0.3333333333333333
-    assert lines[2:4] == ["True", "True"]
+    assert lines[2] == "True"
+    assert lines[3].split() == [struct.pack("<f", 1 / 3).hex(), struct.pack("<f", 0.1).hex()]
+
+
+def test_floats_are_30_bits_on_the_roboray_build(tmp_path):
+    """RoboRay (REPR_C, the default): a float lives in the object word, the
+    IEEE single less its two lowest mantissa bits (``roboray_host.float30``):
+    1/3 packs as 0x3eaaaaaa, not float32's 0x3eaaaaab; 0.1 as 0x3dcccccf, not
+    0x3dcccccd. What it holds round-trips through struct exactly, and a
+    float costs no heap."""
+    from roboray.tools.micropython.roboray_host import float30
+
+    lines = ok(_FLOATS, tmp_path).split("\n")
+    assert lines[0] == "True"
+    r01, r13 = lines[1].split()
+    assert r01 == "0.1"
+    assert abs(float(r13) - 1 / 3) < 2 ** -21
+    assert lines[2] == "True"
+    assert lines[3].split() == ["aaaaaa3e", "cfcccc3d"]
+    assert lines[3].split() == [struct.pack("<f", float30(1 / 3)).hex(), struct.pack("<f", float30(0.1)).hex()]
+    assert struct.pack("<f", float30(1 / 3)) != struct.pack("<f", 1 / 3)
+
+
+@pytest.mark.parametrize("build,repr_,boxed", [("roboray", "C", False), ("stock", "A", True)])
+def test_each_build_says_what_it_is(build, repr_, boxed):
+    """Both images, and what each reports: object representation, float
+    and word width (``interpreter_build``, as sil --json prints it)."""
+    got = rp2350_emu.interpreter_build(build)
+    assert got == {"name": "rp2350-emu " + build, "version": rp2350_emu.version(build), "obj_repr": repr_,
+                   "float_bits": 32, "word_bits": 32}
+    assert rp2350_emu.IMAGES[build].name == build + "-rp2350-emu.elf"
 
 
 def test_small_ints_are_31_bits(tmp_path):

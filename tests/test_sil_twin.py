@@ -1,9 +1,11 @@
 """The twin as a whole: the firmware's own entry point flying the simulated vehicle.
 
-The first two tests run the firmware on the real MicroPython interpreter
-(one interpreter for the module, reset between runs, as a board is); the
-others use ``--interpreter cpython`` where the interpreter is not the
-point and minutes of simulated time are.
+The first two tests run the firmware on the twin's default interpreter,
+RoboRay MicroPython built for the host (floats in the object word, as on
+the board); the crash tests on the WebAssembly port (one interpreter for
+the module, reset between runs, as a board is), whose application they
+replace from the host; the others use ``--interpreter cpython`` where the
+interpreter is not the point and minutes of simulated time are.
 """
 
 from __future__ import annotations
@@ -28,12 +30,14 @@ def board():
 
 
 @pytest.mark.skipif(app.control_mod is None, reason="the controller (shared/control) is not in this firmware yet")
-def test_a_target_landing_through_the_whole_stack_on_micropython(board, tmp_path):
+def test_a_target_landing_through_the_whole_stack_on_micropython(tmp_path):
     # firmware on MicroPython, register-level sensors, estimator, controller,
     # servos read back from the PWM, MAVLink both ways (pymavlink on the ground)
     tlog = tmp_path / "landing.tlog"
-    r = run(Options(scenario="target-landing", tlog=str(tlog)), interpreter=board)
-    assert r["interpreter"].startswith("micropython")
+    r = run(Options(scenario="target-landing", tlog=str(tlog)))
+    assert r["interpreter"].startswith("roboray-unix 1.")
+    assert r["interpreter_build"] == {"name": "roboray-unix", "version": r["interpreter"].split()[1],
+                                      "obj_repr": "C", "float_bits": 32, "word_bits": 32}
     # the firmware says which source it is, as a build's start-up line would
     assert r["console"][0] == r["firmware"] and r["firmware"].startswith("RoboRay firmware 0.")
     assert r["landed"] and r["target"] == [2.0, 0.0]
@@ -60,10 +64,10 @@ def test_a_target_landing_through_the_whole_stack_on_micropython(board, tmp_path
     assert all(m["crc_ok"] for m in msgs)
 
 
-def test_the_same_seed_gives_the_same_tlog(board, tmp_path):
+def test_the_same_seed_gives_the_same_tlog(tmp_path):
     paths = [tmp_path / ("run%d.tlog" % k) for k in range(3)]
     for path, seed in zip(paths, (7, 7, 8)):
-        run(Options(scenario="passive-drop", seed=seed, duration=12.0, tlog=str(path)), interpreter=board)
+        run(Options(scenario="passive-drop", seed=seed, duration=12.0, tlog=str(path)))
     a, b, c = (p.read_bytes() for p in paths)
     assert len(a) > 10000
     assert a == b
@@ -146,7 +150,7 @@ def test_a_crashing_application_prints_its_traceback_and_the_watchdog_restarts_i
                "def __crashing(**kw):\n    machine.WDT(timeout=1000)\n    return 1 // 0\n")
     try:
         board.exec("app.main = __crashing")
-        r = run(Options(scenario="passive-drop", duration=3.5), interpreter=board)
+        r = run(Options(scenario="passive-drop", interpreter="micropython", duration=3.5), interpreter=board)
     finally:
         board.exec("app.main = __real_main")
     # crashes at 0, 1, 2 and 3 s, each reset by the watchdog a second later

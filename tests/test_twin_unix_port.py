@@ -29,7 +29,7 @@ def test_the_unix_port_flies_the_drop_the_webassembly_port_flies(tmp_path):
     # where the two runtimes' plumbing differs most
     opts = dict(scenario="passive-drop", duration=16.0,
                 faults=[faults.parse("imu-nack@9"), faults.parse("imu-ok@10"), faults.parse("watchdog@12")])
-    wasm = run(Options(tlog=str(tmp_path / "wasm.tlog"), **opts))
+    wasm = run(Options(interpreter="micropython", tlog=str(tmp_path / "wasm.tlog"), **opts))
     unix = run(Options(interpreter="micropython-unix", tlog=str(tmp_path / "unix.tlog"), **opts))
     assert unix["interpreter"].startswith("micropython-unix 1.")
     assert unix["firmware"] == wasm["firmware"] and unix["console"][0] == unix["firmware"]

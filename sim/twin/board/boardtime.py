@@ -36,10 +36,29 @@ into a buffer the lockstep sends to the host with its frame request
 added, ``GC`` a collection, ``SLOT`` a slot's work from its start to the
 end of its collection (the scheduler's own ``work``), ``FLASH`` a flash
 stall. The host turns them into per-task mean, p99 and max.
+
+The heap is counted too (``gc.mem_alloc()`` around each task call, read
+inside the bracket on the emulated board so it is not charged): ``ALLOC``
+ends each slot's records (before its ``SLOT``) with the bytes its tasks
+allocated, the "gc" task's call left out (its collection frees), and
+``AUTO_GC`` marks a task call after which the heap held fewer bytes than
+before it: a collection the allocator made when the heap was full, which
+nothing else reports. ``roboray-sim bench board`` turns the armed slots'
+records into ``flight_alloc_bytes_per_slot`` and ``flight_collections``.
+A collection inside a task that freed less than the task allocated is
+not seen: on the RoboRay build the firmware's slots leave a few bytes, so
+such a collection would find the heap nearly empty of garbage.
 """
 
+import gc
 import sys
 from array import array
+
+try:
+    _mem_alloc = gc.mem_alloc
+except AttributeError:  # CPython: no heap to count
+    def _mem_alloc():
+        return 0
 
 try:
     from micropython import const
@@ -57,6 +76,8 @@ except ImportError:
 GC = const(16)
 SLOT = const(17)
 FLASH = const(18)
+ALLOC = const(19)
+AUTO_GC = const(20)
 _MASK = const(0x3FFFFFFF)
 _US_MAX = const(0x1FFFFF)
 _RECORDS = const(512)
@@ -110,6 +131,9 @@ class BoardTime:
         self.commits = 0
         self.flash_us = 0
         self._modes = None
+        #: bytes the current slot's tasks allocated so far
+        self.alloc = array("i", [0])
+        self._gc_task = -1
         if source == "emu":
             ps = ps_per_insn if ps_per_insn else 6667
             self._ps = int(ps * REF_MHZ / cpu_mhz + 0.5)
@@ -176,6 +200,7 @@ class BoardTime:
         into one cycle for the firmware's collector (``firmware/collector.py``)."""
         self._modes = modes if self.source == "model" else None
         self.names = list(sched.names)
+        self._gc_task = self.names.index("gc") if "gc" in self.names else -1
         fns = sched._fns
         emu = self.source == "emu"
         for i in range(len(fns)):
@@ -191,20 +216,34 @@ class BoardTime:
         sched._collect = self._wrap_collect(sched._collect or _nothing, sched, emu,
                                             sched._collect is not None)
 
+    def _count(self, i, a0):
+        """The heap after task ``i``'s call, which found ``a0`` bytes allocated."""
+        d = _mem_alloc() - a0
+        if i == self._gc_task:
+            return
+        if d < 0:
+            self.record(AUTO_GC, 0)
+        else:
+            self.alloc[0] += d
+
     def _wrap_emu(self, i, fn):
         xb = emuboard.exclude_begin
         xe = emuboard.exclude_end
         busy = emuboard.busy_us
         rec = self.record
+        count = self._count
+        mem_alloc = _mem_alloc
 
         def run():
             xb()
             b0 = busy()
+            a0 = mem_alloc()
             xe()
             try:
                 fn()
             finally:
                 xb()
+                count(i, a0)
                 rec(i, (busy() - b0) & _MASK)
                 xe()
         return run
@@ -212,24 +251,45 @@ class BoardTime:
     def _wrap_model(self, i, fn, costs):
         rec = self.record
         bt = self
+        count = self._count
+        mem_alloc = _mem_alloc
 
         def run():
             f0 = bt.flash_us
+            a0 = mem_alloc()
             try:
                 fn()
             finally:
+                count(i, a0)
                 c = costs[bt._modes.state]
                 bt.busy = (bt.busy + c) & _MASK
                 # the call's time as the board's: its cost and its flash stalls
                 rec(i, c + bt.flash_us - f0)
         return run
 
+    def _end_slot(self):
+        a = self.alloc
+        self.record(ALLOC, a[0])
+        a[0] = 0
+
     def _wrap_collect(self, collect, sched, emu, collects):
         rec = self.record
         bt = self
+        end = self._end_slot
         if not collects:
-            def run():
-                rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
+            if emu:
+                xb = emuboard.exclude_begin
+                xe = emuboard.exclude_end
+
+                def run():
+                    rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
+                    xb()
+                    end()
+                    xe()
+            else:
+                def run():
+                    rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
+                    end()
             return run
         if emu:
             xb = emuboard.exclude_begin
@@ -243,6 +303,7 @@ class BoardTime:
                 collect()
                 xb()
                 try:
+                    end()
                     rec(GC, (busy() - b0) & _MASK)
                     # the clock reading may end the life (the watchdog bites)
                     rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)
@@ -253,6 +314,7 @@ class BoardTime:
 
             def run():
                 collect()
+                end()
                 bt.busy = (bt.busy + gc_us) & _MASK
                 rec(GC, gc_us)
                 rec(SLOT, (vclock.ticks_us() - sched.now_us) & _MASK)

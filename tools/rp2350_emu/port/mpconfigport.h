@@ -3,14 +3,23 @@
 // Mirrors what ports/rp2 (RP2350, Arm) sets where it changes speed or
 // memory figures: ROM level EXTRA_FEATURES, computed goto, map lookup
 // cache and load-attr fast path (EXTRA defaults, kept), stack check,
-// scheduler, single-precision floats boxed on the heap (object
-// representation A), MPZ long ints, 1-byte qstr hashes, uint16 GC stack
-// entries, the Thumb native emitter and persistent-code loading.
+// scheduler, single-precision floats, MPZ long ints, 1-byte qstr hashes,
+// uint16 GC stack entries, the Thumb native emitter and persistent-code
+// loading. Built twice (build.sh): with RoboRay's configuration
+// (ROBORAY_MPCONFIG: floats in the object word, REPR_C, as the Pico 2
+// firmware and the twin's host build), the default; and stock (floats
+// boxed on the heap, REPR_A, as rp2 ships), on which the instructions are
+// calibrated against the published RP2350 timings, all measured on stock.
 
 #include <stdint.h>
 #include <alloca.h>
 
+#if ROBORAY_MPCONFIG
+#include "mpconfig_roboray.h"
+#define MICROPY_HW_BOARD_NAME                   "RoboRay emulated RP2350 (QEMU mps3-an547), RoboRay MicroPython"
+#else
 #define MICROPY_HW_BOARD_NAME                   "RoboRay emulated RP2350 (QEMU mps3-an547)"
+#endif
 #define MICROPY_HW_MCU_NAME                     "RP2350-class Cortex-M33 (emulated)"
 #define MICROPY_PY_SYS_PLATFORM                 "rp2"
 
