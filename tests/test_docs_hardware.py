@@ -170,3 +170,65 @@ def test_the_user_guide_index_lists_every_user_page():
     pages = {p.name for p in index.parent.glob("*.md")} - {"README.md"}
     assert {"hardware.md", "calibration.md", "first-dive.md"} <= pages
     assert pages - linked == set(), "docs/user/README.md does not list %s" % sorted(pages - linked)
+
+
+def test_the_pack_reaches_the_vehicle_through_a_fuse_and_the_switch():
+    rows = [r[0] for r in _table(_section("Wiring"))]
+    assert rows.index("fuse") < rows.index("power switch") < rows.index("pack")
+    wiring = {r[0]: r for r in _table(_section("Wiring"))}
+    assert "5 A" in wiring["fuse"][2] and "PACK+" in wiring["power switch"][2]
+    texts = " ".join(" ".join("".join(t.itertext()).split()) for t in ET.parse(WIRING_SVG).getroot().iter()
+                     if t.tag.endswith("}text"))
+    assert "fuse 5 A" in texts and "power switch" in texts and "BMS" in texts
+    # the switch is the parts table's, and the fuse's rating sits between what the vehicle draws and the cells'
+    assert any(p[0] == "power switch" for p in _buildable()["PARTS"])
+    safety = " ".join(_section("Electrical safety").split())
+    assert "6 V x 3.2 A / (7.2 V x 0.9) = 3.0 A" in safety and 6 * 3.2 / (7.2 * 0.9) < 5 < 8
+
+
+def test_the_low_battery_behaviour_the_page_gives_is_the_firmwares():
+    from roboray.firmware import failsafe
+    from roboray.shared.param_defs import PARAMS as DEFS
+
+    declared = {p[0]: p for p in tuple(DEFS) + tuple(failsafe.PARAMS)}
+    safety = " ".join(_section("Electrical safety").split())
+    assert "`BATT_LOW_VOLT` (default %g V" % declared["BATT_LOW_VOLT"][2] in safety
+    assert "`BATT_PARK` 1, the default" in safety and declared["BATT_PARK"][2] == 1
+    assert failsafe._PARKED in safety
+
+
+def test_the_endurance_sum_adds_up():
+    section = _section("Endurance, resting on the bottom and recovery")
+    rows = _table(section)
+    volts = {"5 V": 5.0, "3.3 V": 5.0, "6 V": 6.0}     # the 3.3 V loads come off the 5 V rail
+    logic = servo = 0.0
+    divider = None
+    for consumer, rail, current, _ in rows:
+        ma = float(current.split()[0])
+        if rail == "pack":
+            divider = ma
+        elif rail == "6 V":
+            servo += ma
+        else:
+            logic += ma * volts[rail] / 5.0
+    assert divider == pytest.approx(8.4 / 30.0, abs=0.005)
+    watts = (5.0 * logic + 6.0 * servo) / 1000.0 / 0.8 + 7.2 * divider / 1000.0
+    text = " ".join(section.split())
+    assert "5 V x (40 + 19 + 0.55 + 1 + 1.25 + 1) mA = %.3f W" % (5.0 * logic / 1000.0) in text
+    assert "**%.3f W, %.0f mA from the pack at 7.2 V**" % (watts, 1000 * watts / 7.2) in text
+    amps = watts / 7.2
+    assert "**%.0f h** to empty" % (3.5 / amps) in text and "**%.0f h** to `BATT_LOW_VOLT`" % (0.85 * 3.5 / amps) in text
+
+
+def test_the_dome_seal_the_page_gives_is_the_drawings():
+    from roboray.sim import drawing
+
+    text = " ".join(_section("Mechanics").split())
+    inner, outer = drawing.groove()
+    assert "**AS568-041** (ID %.2f mm, cross-section %.2f mm" % (drawing.ORING_ID_MM, drawing.ORING_CS_MM) in text
+    assert "the drawing: %.2f mm, so %.0f %% squeeze" % (
+        drawing.GROOVE_DEPTH_MM, 100 * (drawing.ORING_CS_MM - drawing.GROOVE_DEPTH_MM) / drawing.ORING_CS_MM) in text
+    assert "its outside %.2f mm" % outer in text and "the ring's, %.2f mm" % inner in text
+    fill = math.pi * (drawing.ORING_CS_MM / 2) ** 2 / (drawing.GROOVE_DEPTH_MM * drawing.GROOVE_WIDTH_MM)
+    assert "the ring fills %.0f %% of the groove" % (100 * fill) in text
+    assert "on a %g mm circle" % (2 * (50 + drawing.FLANGE_MM + drawing.CLAMP_SCREW_GAP_MM)) in text
