@@ -30,7 +30,7 @@ def figure(truth: dict, positions: list, report: dict):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from roboray.sim.plots import WING_STYLES, WINGS
+    from roboray.sim.plots import WING_STYLES, WINGS, plot_series
 
     t = truth["t"]
     x = truth["x"]
@@ -69,9 +69,7 @@ def figure(truth: dict, positions: list, report: dict):
     ax.legend(fontsize=8)
 
     ax = axes[1, 0]
-    wings = np.degrees(x[:, 13:17])
-    for k in range(4):
-        ax.plot(t, wings[:, k], lw=1, ls=WING_STYLES[k], label=WINGS[k])
+    plot_series(ax, t, np.degrees(x[:, 13:17]).T, WINGS, WING_STYLES)   # wings at one angle: one line
     ax.set_xlabel("time (s)")
     ax.set_ylabel("wing angle (deg), 0 flat, 90 folded")
     ax.grid(True, alpha=0.3)
