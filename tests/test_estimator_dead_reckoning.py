@@ -1,7 +1,7 @@
 """The horizontal filter without fixes (issue 27): its variance grows with
 the descent model's error over the distance it dead-reckons, a fix brings
-it back down, and the bookkeeping allocates nothing, on the real
-MicroPython interpreter (the board's floats)."""
+it back down, and the bookkeeping costs a few floats, on the real
+MicroPython interpreter."""
 
 from __future__ import annotations
 
