@@ -18,7 +18,11 @@ and first an "absolute" block (family ``0xe48bff57``, 0x10ffff00, 256
 bytes of 0xef, extension ``0x9957e304`` "ignore") that works around
 erratum RP2350-E10 on A2 chips (pico-sdk ``tools/CMakeLists.txt``:
 ``--abs-block`` when ``PICO_RP2350_A2_SUPPORTED``, which the ``pico2``
-board sets).
+board sets). Checked: for this repository's Pico 2 firmware ELF, picotool
+2.2.0 (built from its tag, without USB) ``uf2 convert firmware.elf out.uf2
+--family rp2350-arm-s --abs-block`` and :func:`from_elf` give the same
+bytes (sha256 5bcd6dc0..., ``roboray-pico2.uf2``), and ``picotool info -a``
+reads its IMAGE_DEF (RP2350, Arm Secure) at 0x10000138.
 
 :func:`check` refuses a UF2 the boot ROM would not start as an RP2350 Arm
 image: wrong magics or family, payloads other than 256 bytes, block numbers

@@ -113,6 +113,24 @@ make -C "$WORK/build" -j"$JOBS" >"$WORK/make.log" 2>&1 || {
     exit 1
 }
 
+# The object representation and float width the firmware was compiled with,
+# read back through the preprocessor with the build's own flags (REPR_C is 2,
+# FLOAT_IMPL_FLOAT 1 in py/mpconfig.h): the configuration is in effect, not
+# merely included.
+FLAGS_MAKE="$WORK/build/CMakeFiles/firmware.dir/flags.make"
+PROBE=$(printf '#include "py/mpconfig.h"\nROBORAY_PROBE MICROPY_OBJ_REPR MICROPY_FLOAT_IMPL\n' |
+    eval arm-none-eabi-gcc -E -P $(sed -n 's/^C_DEFINES = //p; s/^C_INCLUDES = //p; s/^C_FLAGS = //p' "$FLAGS_MAKE") -x c - |
+    sed -n 's/^ROBORAY_PROBE //p' | tr -d '() ')
+case "$PROBE" in
+2*) OBJ_REPR=C ;;
+*) echo "the firmware was not compiled with MICROPY_OBJ_REPR_C (probe: $PROBE)" >&2; exit 1 ;;
+esac
+case "$PROBE" in
+*1) FLOAT_BITS=32 ;;
+*2) FLOAT_BITS=64 ;;
+*) echo "unknown MICROPY_FLOAT_IMPL (probe: $PROBE)" >&2; exit 1 ;;
+esac
+
 ELF="$WORK/build/firmware.elf"
 python3 "$UF2TOOL" from-elf "$ELF" "$HERE/roboray-pico2.uf2"
 python3 "$UF2TOOL" check "$HERE/roboray-pico2.uf2"
@@ -130,8 +148,8 @@ cat > "$HERE/roboray-pico2.json" <<INFO
   "machine": "$MACHINE",
   "version": "$VERSION",
   "release": "$(echo "$MP_GIT_TAG" | sed 's/^v//; s/\.[0-9]*\.g.*//')",
-  "obj_repr": "C",
-  "float_bits": 32,
+  "obj_repr": "$OBJ_REPR",
+  "float_bits": $FLOAT_BITS,
   "word_bits": 32
 }
 INFO
@@ -141,19 +159,19 @@ NEWLIB_VERSION=$(dpkg-query -W -f='${Version}' libnewlib-arm-none-eabi 2>/dev/nu
 SIZES=$(arm-none-eabi-size "$ELF" | tail -1 | awk '{print "text " $1 ", data " $2 ", bss " $3}')
 BUILD_TYPE=$(sed -n 's/^Build type is //p' "$WORK/cmake.log")
 # The compiler flags of the firmware's C files, this run's folder named as the prefix map names it.
-FLAGS=$(sed -n 's/^C_FLAGS = //p' "$WORK/build/CMakeFiles/firmware.dir/flags.make" | sed "s|$WORK|/roboray-pico2|g")
+FLAGS=$(sed -n 's/^C_FLAGS = //p' "$FLAGS_MAKE" | sed "s|=$WORK=|=BUILD_FOLDER=|g; s|$WORK|/roboray-pico2|g" | tr -s ' ')
 cat > "$HERE/BUILD.txt" <<INFO
 roboray-pico2.uf2: RoboRay MicroPython for the Raspberry Pi Pico 2 (RP2350, Arm Cortex-M33)
 sha256: $SHA
 Identity on the board: os.uname().machine '$MACHINE', os.uname().version '$VERSION',
   sys.implementation._build '$BOARD' (roboray-pico2.json; roboray-flash checks them)
-Configuration: board/$BOARD (RPI_PICO2 + ROMFS 256 kB) including ../mpconfig_roboray.h, sha256 $(sha256sum "$HERE/../mpconfig_roboray.h" | cut -d' ' -f1)
+Configuration: board/$BOARD (RPI_PICO2 + ROMFS 256 kB) including ../mpconfig_roboray.h (compiled in: MICROPY_OBJ_REPR_$OBJ_REPR, $FLOAT_BITS-bit floats), sha256 $(sha256sum "$HERE/../mpconfig_roboray.h" | cut -d' ' -f1)
 MicroPython: github.com/micropython/micropython $MP_COMMIT ($MP_GIT_TAG), port ports/rp2
 pico-sdk: github.com/raspberrypi/pico-sdk $SDK_COMMIT (2.2.0)
 TinyUSB: github.com/hathach/tinyusb $TUSB_COMMIT
 micropython-lib: github.com/micropython/micropython-lib $MPLIB_COMMIT
 Mbed TLS: github.com/Mbed-TLS/mbedtls $MBEDTLS_COMMIT (v3.6.6)
-Files absent from the clones used (never read by the build): $(tr '\n' ' ' < "$WORK/absent.txt")
+Files absent from the clones used (never read by the build): $(paste -sd';' "$WORK/absent.txt" | sed 's/;/; /g')
 Compiler: $GCC_VERSION; newlib (libnewlib-arm-none-eabi) $NEWLIB_VERSION; $(cmake --version | head -1)
 Build type: $BUILD_TYPE; C flags: $FLAGS (the port adds -O2 for py/map.c, mpz.c, vm.c)
 UF2: tools/flash/uf2.py from-elf (picotool 2.2.0's layout: family RP2350-ARM-S 0xe48bff59, 256-byte blocks, sectors padded, RP2350-E10 absolute block first)
