@@ -169,8 +169,11 @@ def do_firmware(args: argparse.Namespace) -> None:
                                  "BOOTSEL while plugging the Pico 2 in, or pass --drive"
                                  % ", ".join(str(r) for r in fw.mount_roots()))
             with Board(port, timeout_s=args.timeout) as board:
-                report["board_before"] = board.identity()
-                log.info("%s runs %s: restarting it into BOOTSEL", port, fw.describe_identity(report["board_before"]))
+                report["board_before"] = before = board.identity()
+                if fw.RP2350_BOARD_ID not in str(before.get("machine")):
+                    raise fw.WrongBoard("the board on %s is a %s, not a Pico 2 (RP2350): this image is for the "
+                                        "RP2350; nothing done" % (port, before.get("machine")))
+                log.info("%s runs %s: restarting it into BOOTSEL", port, fw.describe_identity(before))
                 board.bootloader()
             report["bootloader_from"] = port
             drive = fw.wait_for(fw.find_drive, args.drive_timeout)
