@@ -1,7 +1,8 @@
 """The board code in the Pico 2's ROMFS partition (``mpremote romfs deploy``).
 
-A stock MicroPython for the Pico 2 (1.25 and later) has a read-only ROMFS
-partition in flash, mounted at ``/rom`` with ``/rom`` and ``/rom/lib``
+RoboRay's MicroPython for the Pico 2 (``roboray-flash firmware``) has a
+read-only ROMFS partition in flash (256 kB; stock ``RPI_PICO2`` builds of
+MicroPython 1.29 have none), mounted at ``/rom`` with ``/rom`` and ``/rom/lib``
 before ``/lib`` on ``sys.path``. A ``.mpy`` imported from it runs in place:
 its bytecode, constant strings and bytes stay in flash, off the heap, so the
 firmware's live heap and every collection are smaller (``docs/design/
@@ -178,8 +179,8 @@ def deploy_romfs(board: Board, build: Build, reset: bool = True, start_timeout_s
     if not q.get("size"):  # the WebAssembly port reports one partition of 0 bytes
         # why, not what to do: --target auto goes on to /lib by itself, and
         # --target romfs adds the way out (cli.do_deploy)
-        raise RomfsUnavailable("the board on %s has no ROMFS partition %d (MicroPython before 1.25, or a "
-                               "build without ROMFS)" % (board.device, partition))
+        raise RomfsUnavailable("the board on %s has no ROMFS partition %d (a MicroPython built without "
+                               "one, as stock RPI_PICO2 builds are; RoboRay's has one)" % (board.device, partition))
     if len(img) > q["size"]:
         raise RomfsUnavailable("the ROMFS image is %d bytes, the board's partition %d bytes" % (len(img), q["size"]))
     same = partition_sha(board, len(img), partition) == sha
