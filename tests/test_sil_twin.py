@@ -47,10 +47,12 @@ def test_a_target_landing_through_the_whole_stack_on_micropython(tmp_path):
     assert [a for _, a in r["arming"]] == ["disarmed", "armed"]
     assert r["arming"][1][0] <= r["modes"][1][0]
     assert r["failsafes"] == [] and r["task_errors"] == 0
-    # the one text: the touchdown on the target (the mission's item 1, shared/mavlink/mission.py)
+    # the texts: going below FS_GCS_DEPTH (5 m: where the radio would
+    # fade in fresh water, firmware/failsafe.py) and the touchdown on the
+    # target (the mission's item 1, shared/mavlink/mission.py)
     texts = [text for _, _, text in r["statustext"]]
     assert texts[0].startswith("RoboRay firmware ")   # the build, at start-up
-    assert texts[1:] == ["Reached target: mission item 1"]
+    assert texts[1:] == ["link lost below 5 m, expected", "Reached target: mission item 1"]
     assert r["overruns"] == 0 and r["resets"] == 0
     assert [a["result"] for a in r["operator"]] == ["accepted"] * 3
     assert r["fixes_sent"] >= 25 and r["bad_frames_from_vehicle"] == 0
