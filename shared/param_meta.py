@@ -194,7 +194,8 @@ _p("LOG_BITMASK", "Log bitmask", "",
    "bit 0 ATT, 1 IMU, 2 MAG, 3 BARO, 4 RCOU and WING, 5 EST, 6 PM, 7 FIX.")
 _p("LOG_FILE_BUFSIZE", "Log buffer size", "kB",
    "RAM the dive is logged into before it goes to flash (only while the vehicle is still or disarmed): "
-   "48 kB holds ~15 s of dive at full rate (~2.4 kB/s), then ~11 s thinned (ATT kept at 25 Hz). Every kB "
+   "80 kB holds ~25 s of dive at full rate (~2.4 kB/s), then ~18 s thinned (ATT kept at 25 Hz): a 10 m dive "
+   "of either vehicle, nothing dropped. Every kB "
    "adds to each collection's time and takes room the loop's garbage needs between collections.",
    user="Advanced")
 _p("LOG_DISARMED", "Log while disarmed", "", "Keep a log while disarmed too, not only from arming to disarming.",

@@ -178,3 +178,23 @@ def test_a_log_listed_right_after_the_disarm_downloads_to_its_listed_size(tmp_pa
     board = (tmp_path / "board" / "logs" / "00000001.BIN").read_bytes()
     first = next((i for i, (x, y) in enumerate(zip(mine, board)) if x != y), None)
     assert mine == board, (len(mine), len(board), first, got)
+
+
+def test_a_default_passive_drop_of_either_vehicle_loses_no_record(tmp_path):
+    # the buildable vehicle sinks slower: armed at 9 s, resting (and
+    # flushing) from about 43 s; with a 48 kB ring it dropped 296 records
+    from roboray.ground.binplot import read
+    from roboray.ground.series import gaps
+    from roboray.sim.twin.runner import run
+
+    for vehicle in (None, "sim/vehicles/buildable.py"):
+        fs = tmp_path / ("board-%s" % ("reference" if vehicle is None else "buildable"))
+        r = run(Options(scenario="passive-drop", vehicle=vehicle, board_fs=str(fs)))
+        assert r["landed"], vehicle
+        log = read((fs / "logs" / "00000001.BIN").read_bytes())
+        texts = [m.Message for m in log.get("MSG", [])]
+        assert not [t for t in texts if "dropped" in t], (vehicle, texts)
+        assert sum(m.Drop for m in log["PM"]) == 0, vehicle
+        att = [m.TimeUS / 1e6 for m in log["ATT"]]
+        assert gaps(att) == [], (vehicle, gaps(att))
+        assert att[-1] > r["landed_at_s"], vehicle     # recorded all the way to the bottom

@@ -21,18 +21,25 @@ readable log; parameters changed after it was prepared are recorded again
 at arming. A log started by a reset in the water waits for the vehicle to
 rest. A prepared log no dive used is used again by the next one.
 
-What the ring holds (default ``LOG_FILE_BUFSIZE`` 48 kB, every record
-enabled): the records below come at ~2.4 kB/s, ~15 s of dive at full rate
+What the ring holds (default ``LOG_FILE_BUFSIZE`` 80 kB, every record
+enabled): the records below come at ~2.4 kB/s, ~25 s of dive at full rate
 until a quarter is left; then the recording thins (IMU to 5 Hz; MAG, RCOU
-and WING stop; ATT stays at 25 Hz: ~1.1 kB/s) for ~11 s more: the
-thesis's 10 m drop (~25 s) with ATT at 25 Hz throughout. When full, new
+and WING stop; ATT stays at 25 Hz: ~1.1 kB/s) for ~18 s more. A default
+passive drop of the buildable vehicle, armed at 9 s and resting from
+about 43 s, lost 296 records with 48 kB and none with 64, 80 or 96 kB
+(``roboray-sim sil --scenario passive-drop --vehicle
+sim/vehicles/buildable.py --param LOG_FILE_BUFSIZE=N --board-fs DIR``);
+80 keeps a margin for a slower dive. When full, new
 records are dropped (never old ones), counted (PM ``Drop``) and told in a
 MSG at the next flush. Events (MODE, MSG, EV, ERR, FIX) are never thinned.
 Why not more: the heap must hold the loop's garbage between two
-collections (every 300 ms) beside the firmware's live objects; with an
-80 kB ring an allocation found it full and collected in the middle of a
-task (a 63 ms stall, the IMU's FIFO overrun, a depth failsafe on
-rp2350-emu). The collector also scans the ring (``docs/design/flight-log.md``).
+collections beside the firmware's live objects, and the collector scans
+the ring (~0.13 ms a kB on a Pico 2). With stock MicroPython's boxed
+floats an 80 kB ring left too little room (an allocation collected in the
+middle of a task: a 63 ms stall, the IMU's FIFO overrun); RoboRay's build
+keeps floats off the heap, and on rp2350-emu 96 kB gave 0 overruns (the
+buildable passive drop and target-landing), collections up to 57.8 ms
+against 50.0 ms with 48 kB (``docs/design/flight-log.md``).
 
 Records and rates (the log task runs at 50 Hz; ``LOG_BITMASK`` bit in
 brackets):
@@ -76,7 +83,7 @@ except ImportError:  # CPython
 
 PARAMS = (
     ("LOG_BITMASK", TYPE_INT32, 255, 0, 255),        # records kept (bits above)
-    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 48, 8, 160),    # kB of RAM for the ring
+    ("LOG_FILE_BUFSIZE", TYPE_UINT8, 80, 8, 160),    # kB of RAM for the ring
     ("LOG_DISARMED", TYPE_UINT8, 0, 0, 1),           # 1: log while disarmed too
 )
 
