@@ -76,10 +76,13 @@ def test_refuses_an_rp2040_drive_and_writes_nothing(tmp_path):
 
 
 def test_refuses_a_folder_that_is_no_boot_rom_drive(tmp_path):
-    proc = flash("firmware", "--drive", str(tmp_path), "--no-wait")
+    no_board = str(tmp_path / "ttyACM9")  # and no board on USB to send to BOOTSEL
+    drive = tmp_path / "drive"
+    drive.mkdir()
+    proc = flash("firmware", "--drive", str(drive), "--port", no_board, "--no-wait")
     assert proc.returncode == 1 and "no INFO_UF2.TXT" in proc.stderr
-    assert list(tmp_path.iterdir()) == []
-    proc = flash("firmware", "--drive", str(tmp_path / "absent"), "--no-wait")
+    assert list(drive.iterdir()) == []
+    proc = flash("firmware", "--drive", str(tmp_path / "absent"), "--port", no_board, "--no-wait")
     assert proc.returncode == 2 and "is not a folder" in proc.stderr
 
 
@@ -186,3 +189,43 @@ def test_a_running_board_is_sent_to_bootsel_over_the_raw_repl(tmp_path):
             time.sleep(0.1)
     assert (fs / "BOOTSEL").read_text() == "entered"
     assert ident["build"] == "RPI_PICO2" and ident["machine"] == "Raspberry Pi Pico2 with RP2350"
+
+
+@pytest.mark.micropython
+def test_a_board_running_micropython_becomes_the_drive_it_is_flashed_through(tmp_path):
+    """No drive yet, a board on the port: ``firmware`` reads which build it
+    runs, sends it to BOOTSEL over the raw REPL and writes the image once its
+    drive is there. The board's ``machine.bootloader()`` here leaves a mark
+    in its file system, and this test, standing in for the host's automounter,
+    mounts the drive (a folder with INFO_UF2.TXT) when it sees the mark."""
+    import threading
+
+    from roboray.tools.micropython.virtual_board import VirtualBoard
+
+    machine = tmp_path / "machine.py"
+    machine.write_text("import os\n\ndef bootloader():\n"
+                       "    with open('/BOOTSEL', 'w') as f:\n        f.write('entered')\n    os.sync()\n")
+    fs, media = tmp_path / "fs", tmp_path / "media"
+    drive = media / "RP2350"
+    stop = threading.Event()
+
+    def automount():
+        while not stop.is_set():
+            if (fs / "BOOTSEL").exists():
+                bootsel_drive(media, RP2350_INFO)
+                return
+            time.sleep(0.05)
+
+    with VirtualBoard(fs_dir=fs, modules=[machine]) as vb:
+        mounter = threading.Thread(target=automount, daemon=True)
+        mounter.start()
+        try:
+            proc = flash("firmware", "--drive", str(drive), "--port", vb.device, "--no-wait", "--json",
+                         "--drive-timeout", "60")
+        finally:
+            stop.set()
+            mounter.join()
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    assert r["bootloader_from"] == vb.device and r["board_before"]["build"] == "RPI_PICO2"
+    assert (drive / "ROBORAY.UF2").read_bytes() == IMAGE.read_bytes()

@@ -156,18 +156,24 @@ def do_firmware(args: argparse.Namespace) -> None:
     report: dict = {"uf2": str(args.uf2 or fw.IMAGE), "uf2_bytes": len(data), "blocks": figures["blocks"],
                     "sha256": hashlib.sha256(data).hexdigest(), "expected": expected,
                     "bootloader_from": None}
-    if args.drive is not None:
-        if not args.drive.is_dir():
-            raise UsageError("--drive %s is not a folder" % args.drive)
-        drive = args.drive
+    drive = args.drive
+    if drive is not None:
+        ready = lambda: drive if (drive / fw.INFO_FILE).is_file() else None  # noqa: E731
     else:
         drive = fw.find_drive()
-        if drive is None:
-            port = fw.micropython_port()
-            if port is None:
+        ready = fw.find_drive
+    if drive is None or ready() is None:
+        # No drive yet: a board running MicroPython on USB is told to become one.
+        port = fw.micropython_port(args.port)
+        if port is None:
+            if args.drive is not None and not args.drive.is_dir():
+                raise UsageError("--drive %s is not a folder (and no board on USB to restart into BOOTSEL)"
+                                 % args.drive)
+            if args.drive is None:
                 raise fw.NoDrive("no Pico 2 BOOTSEL drive mounted (looked in %s) and no board on USB: hold "
                                  "BOOTSEL while plugging the Pico 2 in, or pass --drive"
                                  % ", ".join(str(r) for r in fw.mount_roots()))
+        else:
             with Board(port, timeout_s=args.timeout) as board:
                 report["board_before"] = before = board.identity()
                 if fw.RP2350_BOARD_ID not in str(before.get("machine")):
@@ -176,16 +182,17 @@ def do_firmware(args: argparse.Namespace) -> None:
                 log.info("%s runs %s: restarting it into BOOTSEL", port, fw.describe_identity(before))
                 board.bootloader()
             report["bootloader_from"] = port
-            drive = fw.wait_for(fw.find_drive, args.drive_timeout)
+            drive = fw.wait_for(ready, args.drive_timeout)
             if drive is None:
-                raise fw.NoDrive("the board on %s was sent to BOOTSEL but no RP2350 drive was mounted within %g s "
-                                 "(mount it, then pass --drive)" % (port, args.drive_timeout))
+                raise fw.NoDrive("the board on %s was sent to BOOTSEL but no RP2350 drive was mounted %swithin %g s "
+                                 "(mount it, then pass --drive)"
+                                 % (port, "at %s " % args.drive if args.drive else "", args.drive_timeout))
     info = fw.check_drive(drive)
     report.update({"drive": str(drive), "board_id": info.get("Board-ID")})
     target = fw.write_image(drive, data)
     report["written"] = str(target)
     if not args.no_wait:
-        port = fw.wait_for(fw.micropython_port, args.drive_timeout)
+        port = fw.wait_for(lambda: fw.micropython_port(args.port), args.drive_timeout)
         if port is None:
             raise NoBoardFound("the image was written to %s but no board came back on USB within %g s "
                                "(replug it; a board still in BOOTSEL did not take the image)"
@@ -341,6 +348,9 @@ def build_parser():
                         "tools/roboray_micropython/pico2/roboray-pico2.uf2)")
     p.add_argument("--no-wait", action="store_true",
                    help="stop after the copy: do not wait for the board to come back as MicroPython")
+    p.add_argument("--port", default="auto",
+                   help="serial port of a board running MicroPython to restart into BOOTSEL, and where to "
+                        "find it back; 'auto' finds it by its USB vendor id (default)")
     p.add_argument("--drive-timeout", type=positive, default=30.0, metavar="S",
                    help="seconds to wait for the BOOTSEL drive, and for the board back on USB (default 30)")
     p.add_argument("--timeout", type=positive, default=10.0, metavar="S",

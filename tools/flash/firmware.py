@@ -198,10 +198,13 @@ def wait_for(probe: Callable[[], Optional[object]], timeout_s: float, poll_s: fl
         time.sleep(poll_s)
 
 
-def micropython_port(ports=None) -> Optional[str]:
-    """The one board's serial port on USB, None when none is there."""
+def micropython_port(port: str = "auto", ports=None) -> Optional[str]:
+    """The board's serial port (``port``, or the one ``auto`` finds on USB),
+    None while it is not there."""
     from .ports import pick
 
+    if port != "auto":
+        return port if "://" in port or os.path.exists(port) else None
     try:
         return pick("auto", ports)
     except NoBoardFound as exc:
