@@ -229,3 +229,34 @@ def test_a_board_running_micropython_becomes_the_drive_it_is_flashed_through(tmp
     r = json.loads(proc.stdout)
     assert r["bootloader_from"] == vb.device and r["board_before"]["build"] == "RPI_PICO2"
     assert (drive / "ROBORAY.UF2").read_bytes() == IMAGE.read_bytes()
+
+
+@pytest.mark.micropython
+def test_after_the_copy_the_board_is_checked_for_the_build_written(tmp_path):
+    """Without ``--no-wait`` the tool finds the board back on its port and
+    compares the build it reports with the image's identity. The virtual
+    board reports a stock RPI_PICO2 build: the RoboRay image's check fails in
+    one line; an image whose identity is that build's passes."""
+    from roboray.tools.flash.board import Board
+    from roboray.tools.micropython.virtual_board import VirtualBoard
+
+    with VirtualBoard(fs_dir=tmp_path / "fs") as vb:
+        proc = flash("firmware", "--drive", str(bootsel_drive(tmp_path / "a", RP2350_INFO)), "--port", vb.device)
+        assert proc.returncode == 1
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and "running MicroPython" in lines[0] and "not the image written" in lines[0]
+        assert "sys.implementation._build is 'RPI_PICO2', the image's is 'ROBORAY_PICO2'" in lines[0]
+
+        with Board(vb.device) as board:
+            stock = board.identity()
+        img = tmp_path / "stock" / "stock.uf2"
+        img.parent.mkdir()
+        img.write_bytes(IMAGE.read_bytes())
+        ident = dict(json.loads(fw.IDENTITY.read_text()), build=stock["build"], machine=stock["machine"],
+                     version=stock["version"])
+        img.with_suffix(".json").write_text(json.dumps(ident))
+        drive = bootsel_drive(tmp_path / "b", RP2350_INFO)
+        proc = flash("firmware", "--drive", str(drive), "--uf2", str(img), "--port", vb.device)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[-1] == "%s is back: MicroPython %s, %s (%s), the build written" % (
+        vb.device, stock["version"], stock["machine"], stock["build"])
