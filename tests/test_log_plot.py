@@ -49,7 +49,7 @@ def _bin(gap=(20.0, 27.0), end=32.0):
 
     clock.set_us(9_000_000)
     w.stamp(clock)
-    put(L.MODE, 0, 0, 0)
+    put(L.MODE, b"PASSIVE", 19, 0)   # (HEARTBEAT's custom_mode of PASSIVE)
     put(L.EV, L.EV_ARMED)
     k = 0
     while clock.us() < end * 1e6:
