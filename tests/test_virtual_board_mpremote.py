@@ -262,8 +262,14 @@ def test_reset_restarts_the_board_as_from_power_on(tmp_path):
         "try:\n    n = int(open('boots.txt').read())\nexcept OSError:\n    n = 0\n"
         "open('boots.txt', 'w').write(str(n + 1))\nprint('main.py, boot', n + 1)\n")
     with VirtualBoard(fs_dir=fs, modules=[builtins / "machine.py"]) as board:
+        board.wait_for_boot(1)
         ok(board, "exec", "kept = 1")
-        ok(board, "resume", "reset")  # mpremote's: machine.reset() after 100 ms
+        ok(board, "resume", "reset")  # mpremote's: machine.reset() after 100 ms, then it exits
+        # as after a Pico's reset, wait for it to be back before talking to
+        # it: sent sooner, the next command's Ctrl-C interrupts the pending
+        # reset, or the reset drops its raw-REPL request and mpremote (which
+        # reads a pseudo-terminal without a time-out) waits for ever
+        board.wait_for_boot(2)
         boots = ok(board, "resume", "exec", "print(open('boots.txt').read(), 'kept' in globals())")
         soft = ok(board, "exec", "import machine\nmachine.soft_reset()")
         after_soft = ok(board, "resume", "fs", "cat", ":boots.txt")
@@ -272,6 +278,7 @@ def test_reset_restarts_the_board_as_from_power_on(tmp_path):
         port.read_until(b">>> ")
         port.write(b"import machine; machine.reset()\r\n")
         hard = port.read_until(b">>> ")
+        board.wait_for_boot(3)
         port.write(b"import sys; sys.exit()\r")
         exited = port.read_until(b">>> ")
         port.close()
@@ -284,7 +291,7 @@ def test_reset_restarts_the_board_as_from_power_on(tmp_path):
     assert hard.count(b">>> ") == 1  # the reset lost what was left of the line (the \n), as USB would
     # sys.exit() in the friendly REPL: a soft reboot, which runs main.py
     assert b"MPY: soft reboot\r\n" in exited and b"main.py, boot 4" in exited
-    assert final == "4"
+    assert final == "4" and board.boots == 3  # power-on and two machine.reset()s
 
 
 def test_a_program_reads_stdin_and_ctrl_c_interrupts_the_wait(tmp_path):

@@ -618,6 +618,7 @@ async function replMode() {
   let raw = false;
   const start = (reset) => {
     const pyexecRaw = raw;
+    const powerOn = !reset || reset === "hard";
     for (;;) {
       if (reset) {
         sync();
@@ -649,6 +650,11 @@ async function replMode() {
     } else {
       banner(() => mp.replInit());
     }
+    // For the host side only (virtual_board.py counts these): a Pico's USB
+    // is gone from machine.reset() until it enumerates again, so a host tool
+    // waits for the board to be back before it talks to it; over a
+    // pseudo-terminal that stays open, this line is how it knows.
+    if (powerOn) process.stderr.write("virtual board: up\n");
   };
 
   start(null);

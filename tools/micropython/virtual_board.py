@@ -122,6 +122,10 @@ class VirtualBoard:
         self._in_w = -1
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
+        self._boots = 0
+        self._booted = threading.Condition()
+        #: What the interpreter's host said on stderr, other than its starts.
+        self.messages: list[str] = []
 
     # -------------------------------------------------------------- lifetime
     def start(self) -> "VirtualBoard":
@@ -156,7 +160,7 @@ class VirtualBoard:
         finally:
             os.close(nonblock_r)
             os.close(block_r)
-        for target in (self._pump_in, self._pump_out):
+        for target in (self._pump_in, self._pump_out, self._pump_err):
             t = threading.Thread(target=target, daemon=True)
             t.start()
             self._threads.append(t)
@@ -192,6 +196,27 @@ class VirtualBoard:
         return self._proc.wait()
 
     @property
+    def boots(self) -> int:
+        """Times the board has started as from power-on: 1 once it is up,
+        one more after each ``machine.reset()``."""
+        with self._booted:
+            return self._boots
+
+    def wait_for_boot(self, boots: int, timeout_s: float = 60.0) -> None:
+        """Block until the board has started ``boots`` times, as a host waits
+        for a Pico to enumerate again after ``machine.reset()`` (its USB is
+        gone meanwhile; this pseudo-terminal stays open, so bytes sent before
+        the board is back would race the reset: Ctrl-C could interrupt it, or
+        the reset would drop them). ``TimeoutError`` if it does not come back."""
+        with self._booted:
+            if not self._booted.wait_for(lambda: self._boots >= boots or not self.alive, timeout_s):
+                raise TimeoutError("the virtual board did not start %d time(s) in %.0f s (%d so far)"
+                                   % (boots, timeout_s, self._boots))
+            if self._boots < boots:
+                raise TimeoutError("the virtual board's interpreter ended after %d start(s): %s"
+                                   % (self._boots, " | ".join(self.messages[-3:])))
+
+    @property
     def alive(self) -> bool:
         return self._proc is not None and self._proc.poll() is None
 
@@ -217,6 +242,19 @@ class VirtualBoard:
                     view = view[os.write(self._in_w, view):]
             except OSError:  # closed, or the interpreter has gone
                 return
+
+    def _pump_err(self) -> None:
+        assert self._proc is not None and self._proc.stderr is not None
+        for raw in iter(self._proc.stderr.readline, b""):
+            line = raw.decode("utf-8", "replace").rstrip("\n")
+            with self._booted:
+                if line == "virtual board: up":
+                    self._boots += 1
+                else:
+                    self.messages.append(line)
+                self._booted.notify_all()
+        with self._booted:
+            self._booted.notify_all()  # ended: a waiter need not wait out its time
 
     # ------------------------------------------------------------ MP -> host
     def _pump_out(self) -> None:
