@@ -223,6 +223,8 @@ class Horizontal:
     def update(self, t_now, t_meas, zn, ze):
         """Fuse a fix (north, east in m) measured at tick ``t_meas``; ``t_now``
         is the tick of the last predict. Returns ``FIX_*``."""
+        if zn - zn != 0.0 or ze - ze != 0.0:   # NaN or infinite (x - x is NaN then): never a fix
+            return FIX_REJECTED
         k = self._find(t_meas)
         if k < 0:
             return FIX_TOO_OLD
@@ -241,7 +243,7 @@ class Horizontal:
         d2 = yn * yn + ye * ye
         g2s = self._g2 * sv
         self.ratio = d2 / g2s
-        if d2 > g2s:
+        if not d2 <= g2s:    # (a NaN compares false: written so it is rejected)
             self.rejects += 1
             if self.rejects >= self._reacquire:
                 self._restart(k, zn, ze)
