@@ -862,12 +862,13 @@ class Twin:
             elif name == "leak":
                 self.world.set_leak(True)
             elif name == "powercut":
-                # a change from the value in force: the last one the vehicle
-                # echoed, else the one it booted with
-                seen = self.ground.seen.params.get("FS_GCS_TIMEOUT")
-                value = (seen[1] if seen else self.table.get(self.table.index("FS_GCS_TIMEOUT"))) + 1.0
-                # sent once: a retry would reach the board after it came back
-                self.ground.script.append(Action(t, "param", ("FS_GCS_TIMEOUT", value), max_tries=1))
+                if int(f.arg):
+                    # a change from the value in force: the last one the vehicle
+                    # echoed, else the one it booted with
+                    seen = self.ground.seen.params.get("FS_GCS_TIMEOUT")
+                    value = (seen[1] if seen else self.table.get(self.table.index("FS_GCS_TIMEOUT"))) + 1.0
+                    # sent once: a retry would reach the board after it came back
+                    self.ground.script.append(Action(t, "param", ("FS_GCS_TIMEOUT", value), max_tries=1))
                 events.append(["cut", int(f.arg)])
             elif name == "watchdog":
                 events.append(["hang"])
@@ -922,7 +923,7 @@ class Twin:
             # drop lingered 60 s (docs/design/architecture.md: this port's
             # collector frees nothing during a run)
             log.warning("the WebAssembly port frees nothing during a run: lingering grows its heap by about "
-                        "0.5 MB a second; for hours on the radio use --interpreter micropython-unix")
+                        "0.5 MB a second; for hours on the radio use the default, --interpreter roboray-unix")
         w, seen = self.world, self.ground.seen
         self._kept = {id(x): (x, len(x)) for x in (w.log_t, w.log_x, w.log_cmd, seen.heartbeats, seen.sys_status,
                                                    seen.positions, seen.attitudes)}
