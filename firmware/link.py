@@ -57,6 +57,7 @@ from array import array
 
 from roboray.firmware.flash_record import FlashRecord
 from roboray.firmware.landing import Touchdown
+from roboray.shared.estimator import health as eh
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.endpoint import Endpoint, ticks_diff
 from roboray.shared.mavlink.signing import Signing
@@ -77,6 +78,8 @@ _COV_AT = const(44)
 _COV_BYTES = const(180)
 _COV_DIAGONAL = (0, 9, 17, 24, 30, 35, 39, 42, 44)
 _NAN = float("nan")
+_COV_DEPTH = eh.COV_DEPTH
+_COV_VZ = eh.COV_VZ
 
 #: The signing record's name, beside the parameter file.
 SIGNING_FILE = "signing.bin"
@@ -308,10 +311,16 @@ class Link:
         pos = t.pos_ned
         v = t.vel_ned
         r = t.var_ned
+        cov = self.nav.est.cov
         c = self._cov
         d = _COV_DIAGONAL
-        for i in range(6):
-            struct.pack_into("<f", c, 4 * d[i], r[i])
+        # position north, east, down; velocity north, east, down
+        struct.pack_into("<f", c, 4 * d[0], r[0])
+        struct.pack_into("<f", c, 4 * d[1], r[1])
+        struct.pack_into("<f", c, 4 * d[2], cov[_COV_DEPTH])
+        struct.pack_into("<f", c, 4 * d[3], r[2])
+        struct.pack_into("<f", c, 4 * d[4], r[3])
+        struct.pack_into("<f", c, 4 * d[5], cov[_COV_VZ])
         w = ep.writer
         b = w.buf
         o = w.payload

@@ -21,12 +21,6 @@ about its charge.
 from roboray.shared.estimator import health as _h
 
 _RAD_TO_DEG = 57.29577951308232
-_COV_NORTH = _h.COV_NORTH
-_COV_EAST = _h.COV_EAST
-_COV_DEPTH = _h.COV_DEPTH
-_COV_VN = _h.COV_VN
-_COV_VE = _h.COV_VE
-_COV_VZ = _h.COV_VZ
 
 # Stream numbers (shared/mavlink/endpoint.py): what ``refresh`` is called with
 _ATTITUDE = 0
@@ -45,6 +39,9 @@ class Reporter:
         self.battery = battery
         self.sched = sched
         telemetry.battery[2] = -1.0
+        # the estimator's north, east, v north, v east variances, in
+        # Telemetry.var_ned's order (health.COV_NORTH..COV_VE are adjacent)
+        self._cov_h = memoryview(nav.est.cov)[_h.COV_NORTH:_h.COV_VE + 1]
 
     def refresh(self, stream):
         """The part of the telemetry stream number ``stream`` sends (the endpoint's ``on_refresh``)."""
@@ -70,14 +67,7 @@ class Reporter:
         """Position and velocity (NED), their variances, depth."""
         t = self.t
         est = self.nav.est
-        c = est.cov
-        r = t.var_ned
-        r[0] = c[_COV_NORTH]
-        r[1] = c[_COV_EAST]
-        r[2] = c[_COV_DEPTH]
-        r[3] = c[_COV_VN]
-        r[4] = c[_COV_VE]
-        r[5] = c[_COV_VZ]
+        t.var_ned[0:4] = self._cov_h    # one slice copy: no float boxed
         n = est.nav
         p = t.pos_ned
         p[0] = n[2]

@@ -381,6 +381,12 @@ class FlightLog:
         dive's log yet, so a log list leaves it out."""
         return self.files.current if self._prep else 0
 
+    def resting(self):
+        """True when flash may be written without costing a dive: disarmed,
+        or armed and still on the bottom (the same rule as the log's own
+        flushes; the parameter store waits on it too)."""
+        return not self.armed or self._resting
+
     def unflushed(self, number):
         """Bytes of log ``number`` still to reach flash: the ring's while it
         is the dive's log being written, and the MSG that will tell of
@@ -525,7 +531,7 @@ class FlightLog:
                 if o >= 0:
                     r = t.var_ned
                     struct.pack_into(EST.pack, w.buf, o, HEAD1, HEAD2, EST.type_id, w.t0, w.t1, w.t2, w.t3,
-                                     p[0], p[1], p[2], v[0], v[1], v[2], g[0], g[1], r[0], r[3])
+                                     p[0], p[1], p[2], v[0], v[1], v[2], g[0], g[1], r[0], r[2])
         elif n == 9 and mask & B_PM:     # 1 Hz
             self._pm()
         # failsafes raised and cleared

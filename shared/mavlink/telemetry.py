@@ -19,9 +19,9 @@ class Telemetry:
         Body rates, rad/s.
     pos_ned, vel_ned : array('f', 3)
         Position (m, from the release point) and velocity (m/s), NED.
-    var_ned : array('f', 6)
-        Their variances (m^2, (m/s)^2): north, east, down, then the
-        velocities; north and east grow while the position is dead-reckoned.
+    var_ned : array('f', 4)
+        Horizontal variances: north, east (m^2), north and east velocity
+        ((m/s)^2); they grow while the position is dead-reckoned.
     target_ned : array('f', 3)
         Current target position (m, NED); ``has_target`` says whether it is set.
     env : array('f', 3)
@@ -48,7 +48,7 @@ class Telemetry:
         self.rates = array("f", [0.0, 0.0, 0.0])
         self.pos_ned = array("f", [0.0, 0.0, 0.0])
         self.vel_ned = array("f", [0.0, 0.0, 0.0])
-        self.var_ned = array("f", [0.0] * 6)
+        self.var_ned = array("f", [0.0] * 4)
         self.target_ned = array("f", [0.0, 0.0, 0.0])
         self.has_target = False
         self.env = array("f", [0.0, 101325.0, 20.0])
