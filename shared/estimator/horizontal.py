@@ -37,15 +37,16 @@ from roboray.shared.estimator.ticks import ticks_diff
 
 #: Relative error (1 sigma, per axis) of the descent model's horizontal
 #: velocity over a dive. From the Monte Carlo's model errors (added mass,
-#: C_D, ell, servo lag each +-10 %, ``sim/montecarlo.py``) with no fix after
-#: the release, 10 m bottom: the estimate's error at landing, RMS (2-D),
-#: was 0.145, 0.166 and 0.254 m for targets 1, 2 and 4 m off (30, 40 and
-#: 30 runs; the vehicle reckoned 1.06, ~2.0 and 3.57 m). A part that grows
-#: with the distance and one that does not fit them: 0.065 |D| (2-D) and
-#: 0.105 m; per axis 0.046 |D|. The part that does not grow with the
-#: distance grows with time, which the bias's random walk (``bias_psd``)
-#: already covers, more than fully (its 23 s of dive alone give 0.14 m
-#: per axis).
+#: C_D, ell, servo lag each +-10 %) with no fix after the release:
+#: ``roboray-sim montecarlo --runs 30 --water sea --distance 1|2|4
+#: --results F.csv`` (10 m bottom) gave an estimate error at landing of
+#: 0.144, 0.162 and 0.288 m RMS (2-D) over 1.04, 2.00 and 3.12 m reckoned.
+#: Fitted as err^2 = a^2 + (e D)^2, the part that grows with the distance
+#: is per axis 0.031 D from the 1 and 2 m targets, 0.061 D by least squares
+#: over all three (the 4 m target is near the glide's reach): 0.046 D
+#: between. The part that does not grow with the distance (0.08-0.14 m)
+#: grows with time, which the bias's random walk (``bias_psd``) already
+#: covers, more than fully (its 23 s of dive alone give 0.14 m per axis).
 MODEL_ERROR = 0.046
 
 #: ``update()`` results.
