@@ -318,6 +318,10 @@ class Vehicle:
         link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased, hidden=self.log.prepared,
                                    unflushed=self.log.unflushed)
         link.ep.on_text = self.log.msg
+        # a parameter set mid-dive takes effect at once; its flash save waits
+        # for the flight log's rule (disarmed, or still on the bottom)
+        self.store.may_write = self.log.resting
+        self.store.on_hold = self._params_held
         # the build, first thing on the link and in the log, as ArduPilot
         # sends its version: a ground station sees which firmware it talks
         # to, and that the board has (re)started
@@ -362,6 +366,12 @@ class Vehicle:
 
     def _armed(self):
         return self.modes.armed
+
+    def _params_held(self, held):
+        """The parameter save waits (armed, moving) or was made."""
+        self.resume.params_held(held)
+        if held:
+            self.link.ep.send_text(5, "Params: saved once disarmed or at rest")    # MAV_SEVERITY_NOTICE
 
     def log_step(self):
         """The flight log's task: records to RAM, to flash when harmless."""

@@ -32,7 +32,10 @@ offset  type   field
                (bit 3), target depth set (bit 4), armed (bit 5), a reboot
                the ground asked for (bit 6: in the scratch words only,
                written just before ``machine.reset()``, which the rp2
-               port reports as a watchdog reset)
+               port reports as a watchdog reset), parameters changed in
+               RAM and not yet on flash (bit 7: their save waits for the
+               vehicle to be disarmed or at rest; a reset before then
+               loses them, and the next boot says so)
 2       i16    target north, cm (+-327 m)
 4       i16    target east, cm
 6       u16    target depth, cm (0-655 m)
@@ -59,6 +62,7 @@ _HAS_TARGET = 0x08
 _HAS_DEPTH = 0x10
 _ARMED = 0x20
 _REBOOT = 0x40
+_PARAMS_UNSAVED = 0x80
 _P_MIN = 50000.0
 _BIAS_STEP = 0.0002
 _BIAS_MAX = 511
@@ -102,12 +106,15 @@ class DiveState:
         self.bias = [0.0, 0.0, 0.0]
         #: the reset that follows was asked for (a reboot command), not a lock-up
         self.reboot = False
+        #: parameters were changed and their save is waiting (armed, moving)
+        self.params_unsaved = False
 
     def pack(self, buf=None):
         """The 16 bytes (into ``buf`` when given); ValueError on a bad field."""
         if not M.PASSIVE <= self.mode <= M.FAILSAFE:
             raise ValueError("dive state: mode %r" % (self.mode,))
-        flags = self.mode | (_ARMED if self.armed else 0) | (_REBOOT if self.reboot else 0)
+        flags = (self.mode | (_ARMED if self.armed else 0) | (_REBOOT if self.reboot else 0)
+                 | (_PARAMS_UNSAVED if self.params_unsaved else 0))
         north = east = down = 0
         if self.has_target:
             flags |= _HAS_TARGET
@@ -136,6 +143,7 @@ class DiveState:
         self.mode = flags & 7
         self.armed = bool(flags & _ARMED)
         self.reboot = bool(flags & _REBOOT)
+        self.params_unsaved = bool(flags & _PARAMS_UNSAVED)
         self.has_target = bool(flags & _HAS_TARGET)
         self.north = north * 0.01
         self.east = east * 0.01

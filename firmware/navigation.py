@@ -57,7 +57,7 @@ from roboray.shared.estimator import health as eh
 from roboray.shared.estimator.attitude import Attitude
 from roboray.shared.estimator.descent_model import TAU_S
 from roboray.shared.estimator.horizontal import Horizontal
-from roboray.shared.params import TYPE_REAL32, TYPE_UINT8, TYPE_UINT16
+from roboray.shared.params import DIVE_STATE, TYPE_REAL32, TYPE_UINT8, TYPE_UINT16
 
 try:
     from micropython import const
@@ -88,7 +88,7 @@ PARAMS = (
     ("BARO_POS_Y", TYPE_REAL32, 0.020, -0.5, 0.5),
     ("BARO_POS_Z", TYPE_REAL32, 0.0231, -0.5, 0.5),
     ("BARO_SPEC_GRAV", TYPE_REAL32, 1.0, 0.98, 1.05),   # water's specific gravity (1.0 fresh, 1.024 sea)
-    ("BARO1_GND_PRESS", TYPE_REAL32, 101325.0, 50000.0, 120000.0),  # Pa at the surface (set on arming)
+    ("BARO1_GND_PRESS", TYPE_REAL32, 101325.0, 50000.0, 120000.0, DIVE_STATE),  # Pa at the surface (set on arming)
     ("COMPASS_OFS_X", TYPE_REAL32, 0.0, -2000.0, 2000.0),  # mGauss, hard iron
     ("COMPASS_OFS_Y", TYPE_REAL32, 0.0, -2000.0, 2000.0),
     ("COMPASS_OFS_Z", TYPE_REAL32, 0.0, -2000.0, 2000.0),

@@ -254,6 +254,17 @@ class ParamStore:
         #: ``expect_delay(ms)``: told before a save stalls the chip (the
         #: scheduler's ``expect_delay_ms``), or None
         self.expect_delay = None
+        #: ``may_write()``: False while a save would stall a dive (armed and
+        #: moving); None: always. A change then takes effect in RAM at once
+        #: and its save waits (``held``), as the flight log's writes do.
+        self.may_write = None
+        #: ``on_hold(held)``: told when a save starts and stops waiting
+        self.on_hold = None
+        #: a setting's change waits for its save: a reset now loses it
+        #: (``DIVE_STATE`` parameters' changes alone do not count: the
+        #: dive's state keeps them)
+        self.held = False
+        self._saved_settings = getattr(table, "settings_version", 0)
 
     # ---------------------------------------------------------------- read
     def _apply(self, entries):
@@ -278,6 +289,7 @@ class ParamStore:
             self.source = SOURCE_DEFAULTS
             self.loaded = self.unknown = self.rejected = 0
         self._saved_version = getattr(self.table, "version", 0)
+        self._saved_settings = getattr(self.table, "settings_version", 0)
         return self.source
 
     def describe(self):
@@ -299,6 +311,7 @@ class ParamStore:
         replace_file(self.fs, self.path, encode(self.table), "parameter save")
         self.saves += 1
         self._saved_version = getattr(self.table, "version", 0)
+        self._saved_settings = getattr(self.table, "settings_version", 0)
 
     def dirty(self):
         """True when the table changed since the last load or save."""
@@ -308,9 +321,23 @@ class ParamStore:
         """Scheduler task: save when the table changed; never raises on flash errors.
 
         A save stalls the chip (``SAVE_STALL_MS``): the loop is told first
-        (``expect_delay``, the scheduler's ``expect_delay_ms``)."""
+        (``expect_delay``, the scheduler's ``expect_delay_ms``), and it
+        waits while ``may_write()`` says a dive would pay for it: a ground
+        station setting parameters mid-dive would otherwise stall the loop
+        for each (200 sets at 20 Hz cost 18 planned stalls, 114 skipped
+        slots and the landing 0.012 -> 0.186 m)."""
         if not self.dirty():
             return False
+        if self.may_write is not None and not self.may_write():
+            if not self.held and getattr(self.table, "settings_version", 1) != self._saved_settings:
+                self.held = True
+                if self.on_hold is not None:
+                    self.on_hold(True)
+            return False
+        if self.held:
+            self.held = False
+            if self.on_hold is not None:
+                self.on_hold(False)
         if self.expect_delay is not None:
             self.expect_delay(SAVE_STALL_MS)
         try:
@@ -320,4 +347,5 @@ class ParamStore:
             self.save_errors += 1
             self.last_error = str(e)
             self._saved_version = getattr(self.table, "version", 0)
+            self._saved_settings = getattr(self.table, "settings_version", 0)
             return False

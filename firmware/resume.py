@@ -78,6 +78,8 @@ _ATT_DEPTH = nv.ATTITUDE_VALID | nv.DEPTH_VALID
 _ALL_VALID = nv.ATTITUDE_VALID | nv.DEPTH_VALID | nv.POSITION_VALID
 
 _G = 9.80665
+#: appended to the resume's text when the reset lost parameters set in flight
+_LOST = "; parameters set in flight lost"
 
 
 def _ticks_diff(a, b):
@@ -135,6 +137,9 @@ class Resume:
         self._text_ms = 0
         self._gcs_at_text = -1
         self._t0 = clock.ticks_ms()
+        #: parameters set before the reset were still waiting for their
+        #: save (``ParamStore.held``): the reset lost them
+        self.params_lost = False
         self._load()
         self._changes = modes.changes
         self._arms = modes.arms
@@ -162,6 +167,8 @@ class Resume:
                 self.source = "flash"
         if self.source is None:
             return
+        self.params_lost = s.params_unsaved
+        s.params_unsaved = False
         # the depth is measured from the surface of this dive
         p0 = s.surface_pa
         i = self._i_gnd
@@ -177,10 +184,20 @@ class Resume:
         if self.source is None:
             return "dive state: none kept"
         s = self.state
-        return "dive state from %s: %s%s%s%s" % (
+        return "dive state from %s: %s%s%s%s%s" % (
             self.source, M.NAMES[s.mode], "" if s.armed else ", disarmed",
             ", waiting for the depth to resume" if self.pending else "",
-            " (rebooted on command)" if self.cause == "reboot" else "")
+            " (rebooted on command)" if self.cause == "reboot" else "",
+            _LOST if self.params_lost else "")
+
+    def params_held(self, held):
+        """The parameter store's save waits (``held``) or was made: the
+        scratch words say so (no flash write in flight), so a watchdog
+        reset before the save is reported as losing those changes; the
+        flash record carries it from its next event."""
+        self.state.params_unsaved = held
+        if self.scratch is not None:
+            self.scratch.write(self._save_fields())
 
     def mark_reboot(self):
         """Just before a reboot the ground asked for: the scratch words say
@@ -229,6 +246,8 @@ class Resume:
             text = fmt % (self._cause_text(), self.depth_m)
         else:
             text = fmt % self._cause_text()
+        if self.params_lost:
+            text += _LOST
         self._say(msg.MAV_SEVERITY_WARNING, text)
         self._save()    # disarmed: a later boot does not bring the old dive back
 
@@ -256,8 +275,8 @@ class Resume:
             return
         self.resumed = s.mode
         self._changes = self.modes.changes
-        self._say(msg.MAV_SEVERITY_CRITICAL, "%s at %.1f m: resumed %s"
-                  % (self._cause_text(), self.depth_m, M.NAMES[s.mode]))
+        self._say(msg.MAV_SEVERITY_CRITICAL, "%s at %.1f m: resumed %s%s"
+                  % (self._cause_text(), self.depth_m, M.NAMES[s.mode], _LOST if self.params_lost else ""))
 
     def _say(self, severity, text):
         print("resume: " + text)

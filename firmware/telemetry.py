@@ -42,6 +42,9 @@ class Reporter:
         # the estimator's north, east, v north, v east variances, in
         # Telemetry.var_ned's order (health.COV_NORTH..COV_VE are adjacent)
         self._cov_h = memoryview(nav.est.cov)[_h.COV_NORTH:_h.COV_VE + 1]
+        # a view to copy into: CPython's array takes only an array in a slice
+        # assignment, a memoryview takes either on both interpreters
+        self._var_ned = memoryview(telemetry.var_ned)
 
     def refresh(self, stream):
         """The part of the telemetry stream number ``stream`` sends (the endpoint's ``on_refresh``)."""
@@ -67,7 +70,7 @@ class Reporter:
         """Position and velocity (NED), their variances, depth."""
         t = self.t
         est = self.nav.est
-        t.var_ned[0:4] = self._cov_h    # one slice copy: no float boxed
+        self._var_ned[0:4] = self._cov_h    # one slice copy: no float boxed
         n = est.nav
         p = t.pos_ned
         p[0] = n[2]

@@ -68,6 +68,11 @@ ERRORS = ("ok", "out of range", "wrong type", "read only", "unknown parameter", 
 
 #: Declaration flag: the value cannot be set over the link.
 READ_ONLY = const(1)
+#: Declaration flag: the firmware sets it itself in a dive and the dive's
+#: state keeps it through a reset (``firmware/dive_state.py``: the surface
+#: pressure set at arming), so its change alone leaves nothing a reset
+#: would lose while the save waits (``settings_version`` does not count it).
+DIVE_STATE = const(2)
 
 NAME_LEN = const(16)
 
@@ -104,7 +109,10 @@ class ParamTable:
         self._ival = array("l", [0] * n)   # integer types: exact
         self._fval = array("f", [0.0] * n)  # REAL32
         self._hashed = {}
+        #: counts every change; ``settings_version`` those to parameters
+        #: only flash keeps (not ``DIVE_STATE`` ones)
         self.version = 0
+        self.settings_version = 0
         names = []
         seen = {}
         for i in range(n):
@@ -142,6 +150,7 @@ class ParamTable:
         self._names = b"".join(names)
         self.defaults()
         self.version = 0
+        self.settings_version = 0
 
     # ------------------------------------------------------------ look-up
     def count(self):
@@ -263,6 +272,8 @@ class ParamTable:
                 return ERR_RANGE
             self._ival[i] = iv
         self.version += 1
+        if not self._flags[i] & DIVE_STATE:
+            self.settings_version += 1
         return OK
 
     def defaults(self):
@@ -273,3 +284,4 @@ class ParamTable:
             else:
                 self._ival[i] = self._idefault[i]
         self.version += 1
+        self.settings_version += 1

@@ -222,3 +222,29 @@ def test_a_save_that_reads_back_wrong_is_refused_and_keeps_the_old_set(mp):
     assert "read back different" in mp.eval("s.last_error")
     assert mp.eval("s.save_errors") == 1
     assert mp.eval("boot()") == ["main", "old"]
+
+
+def test_a_save_waits_while_the_vehicle_may_not_write_and_says_so_once(tmp_path):
+    # A change mid-dive takes effect in RAM at once; its flash save (a
+    # 150 ms stall) waits until may_write() allows it, as the flight log's
+    # flushes wait for the vehicle to be disarmed or still on the bottom.
+    t = ParamTable(DECLS)
+    store = ParamStore(t, str(tmp_path / "params.bin"))
+    store.load()
+    allowed = [False]
+    holds = []
+    store.may_write = lambda: allowed[0]
+    store.on_hold = holds.append
+    for value in (0.5, 0.75, 1.0):
+        assert t.set_by_name("GAIN_I", value) == 0
+        assert store.service() is False
+    assert t.get(t.index("GAIN_I")) == 1.0                 # in force already
+    assert store.saves == 0 and store.held and holds == [True]   # told once, not per change
+    assert not (tmp_path / "params.bin").exists()
+    allowed[0] = True
+    assert store.service() is True
+    assert store.saves == 1 and not store.held and holds == [True, False]
+    b = ParamTable(DECLS)
+    ParamStore(b, str(tmp_path / "params.bin")).load()
+    assert b.get(b.index("GAIN_I")) == 1.0                  # the last value, saved once
+    assert store.service() is False and holds == [True, False]

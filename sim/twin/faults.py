@@ -17,10 +17,13 @@ name                        what happens
 ``battery-sag[:V]``         the pack falls towards V volts (default 6.2) in about a
                             second: a failing cell
 ``leak``                    water at the leak probe
-``powercut[:N]``            the operator changes a parameter (FS_GCS_TIMEOUT + 1 s)
-                            and the power goes at the N-th flash step of the save
-                            that follows (default 3; a save has ``save_steps()``,
-                            6: a larger N is refused); the board comes back on
+``powercut[:N]``            the power goes, and the board comes back on: at once
+                            (N 0, the default), or the operator changes a
+                            parameter (FS_GCS_TIMEOUT + 1 s) and the power goes
+                            at the N-th flash step of the save that follows (a
+                            save has ``save_steps()``, 6: a larger N is refused;
+                            armed and moving, the save waits for the vehicle to
+                            be disarmed or at rest, and so does the cut)
 ``watchdog``                the loop hangs; the watchdog resets the board
 ``stall[:MS]``              the chip is busy once for MS milliseconds (default 150,
                             a flash save's announced stall) without telling the loop:
@@ -53,7 +56,7 @@ SENSOR_KINDS = {"ok": 0, "nack": 1, "garbage": 2, "stick": 3}
 NAMES = tuple("%s-%s" % (s, k) for s in SENSORS for k in SENSOR_KINDS) + (
     "radio-loss", "radio-corrupt", "radio-ok", "battery-sag", "leak", "powercut", "watchdog", "stall", "overload")
 #: Faults that take an argument, with its default.
-DEFAULTS = {"radio-corrupt": 0.05, "battery-sag": 6.2, "powercut": 3, "stall": 150, "overload": 400}
+DEFAULTS = {"radio-corrupt": 0.05, "battery-sag": 6.2, "powercut": 0, "stall": 150, "overload": 400}
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ time, 20 ms: one servo frame) it makes one ``hostlink.request``:
   radio UART (the line paces them at its baud rate; ``-`` for none);
   ``events`` (JSON) are faults and orders:
   ``["fault", "depth"|"imu"|"mag", kind]`` (``i2c_device.FAULT_*``),
-  ``["cut", n]`` (power goes at the n-th flash step of the next parameter
+  ``["cut", n]`` (0: the power goes now; else at the n-th flash step of the next parameter
   save), ``["hang"]`` (the loop stops until the watchdog resets the
   board), ``["stall", ms]`` (the board is busy once for ``ms``, unannounced),
   ``["cost", us]`` (every clock reading costs ``us``: an overloaded
@@ -238,7 +238,11 @@ class Lockstep:
             self.devices[e[1]].set_fault(e[2])
         elif kind == "cut":
             f = self.files
-            f.cut_at = f.steps + e[1]
+            if e[1]:
+                f.cut_at = f.steps + e[1]
+            else:
+                f.dead = True   # now, wherever the firmware is
+                raise PowerCut("power cut")
         elif kind == "hang":
             self._hangs += 1
         elif kind == "stall":
