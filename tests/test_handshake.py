@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import common as pm  # noqa: E402
 
 from roboray.ground.vehicle import PtyVehicle  # noqa: E402
 from roboray.shared import modes as M  # noqa: E402
+from roboray.shared.mavlink import commands  # noqa
 from roboray.shared.mavlink import endpoint as E  # noqa: E402
 
 SYS, COMP = 1, 1
@@ -102,14 +103,15 @@ def test_version_from_the_build():
 
 def test_command_int_is_acknowledged(gcs):
     # DO_REPOSITION as QGroundControl sends it, in the local frame: x, y in m x 1e4
+    # (2.80 m away: within a glide's reach to a 6 m bottom, 0.49 x 6 m)
     gcs.mav.command_int_send(SYS, COMP, pm.MAV_FRAME_LOCAL_NED, pm.MAV_CMD_DO_REPOSITION, 0, 0,
-                             -1, 0, 0, float("nan"), 25000, -12500, 3.5)
+                             -1, 0, 0, float("nan"), 25000, -12500, 6.0)
     a = ack(gcs, pm.MAV_CMD_DO_REPOSITION)
     assert a is not None and a.result == pm.MAV_RESULT_ACCEPTED
     assert a.target_system == 255 and a.target_component == 190
     assert command(gcs, pm.MAV_CMD_REQUEST_MESSAGE, pm.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED).result == 0
     t = wait(gcs, "POSITION_TARGET_LOCAL_NED")
-    assert t is not None and (t.x, t.y, t.z) == pytest.approx((2.5, -1.25, 3.5))
+    assert t is not None and (t.x, t.y, t.z) == pytest.approx((2.5, -1.25, 6.0))
     # a global frame: no global position here, refused with the reason (a long
     # one, told in STATUSTEXT chunks)
     gcs.mav.command_int_send(SYS, COMP, pm.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, pm.MAV_CMD_DO_REPOSITION, 0, 0,
@@ -132,7 +134,7 @@ def test_long_statustext_goes_in_chunks(gcs):
         m = wait(gcs, "STATUSTEXT", lambda m: m.id == first.id)
         assert m is not None and m.chunk_seq == len(chunks)
         chunks.append(m)
-    assert "".join(m.text for m in chunks) == E._REASON_BAD_FRAME
+    assert "".join(m.text for m in chunks) == commands._REASON_BAD_FRAME
     assert first.severity == pm.MAV_SEVERITY_WARNING
 
 

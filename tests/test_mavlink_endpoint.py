@@ -308,12 +308,13 @@ def test_target_mocap_timesync_and_radio_status():
     g = Ground()
     v = Vehicle(g)
     v.ep.on_fix = lambda f: fixes.append(list(f))
-    g.mav.set_position_target_local_ned_send(0, 1, 1, pm.MAV_FRAME_LOCAL_NED, 0xFF8, 1.0, 2.0, 3.0, 0, 0, 0, 0, 0, 0, 0, 0)
+    # (within a glide's reach of the 3 m bottom: 0.49 x 3 m)
+    g.mav.set_position_target_local_ned_send(0, 1, 1, pm.MAV_FRAME_LOCAL_NED, 0xFF8, 1.0, 0.5, 3.0, 0, 0, 0, 0, 0, 0, 0, 0)
     g.mav.att_pos_mocap_send(123456, [1.0, 0.0, 0.0, 0.0], 0.5, -0.25, 2.0)
     g.mav.timesync_send(0, 987654321)
     g.mav.radio_status_send(80, 70, 50, 30, 20, 3, 0)
     msgs = exchange(g, v)
-    assert list(v.tel.target_ned) == [1.0, 2.0, 3.0]
+    assert list(v.tel.target_ned) == [1.0, 0.5, 3.0]
     assert fixes == [[0.5, -0.25, 2.0, 1.0, 0.0, 0.0, 0.0]] and v.ep.fix_time_us == 123456 and v.ep.fix_count == 1
     ts = [m for m in msgs if m.get_type() == "TIMESYNC"]
     assert ts and ts[0].ts1 == 987654321 and ts[0].tc1 > 0

@@ -8,50 +8,43 @@ with ``read_into(buf) -> n`` (0 or None when nothing waits) and
 ``write(buf)``: the firmware's UART radio driver on the board, a
 pseudo-terminal bridge in tests.
 
-Handled:
+Handled: ``HANDLERS`` (at the end) maps each message id the vehicle acts on
+to its handler ``handler(ep, p)``, one module a protocol, as ArduPilot's
+GCS_MAVLink; each handler checks its own fields (finite, in range:
+``fields.py``) before anything reaches state, and refuses with its
+protocol's answer:
 
-- parameter protocol: PARAM_REQUEST_LIST (streamed a few a cycle),
-  PARAM_REQUEST_READ (by index or name), PARAM_SET (type and range enforced
-  by the ``ParamTable``; the PARAM_VALUE echo carries the value in force, so
-  a refused set shows as an unchanged value, and a STATUSTEXT says why);
-- COMMAND_LONG, answered with COMMAND_ACK: COMPONENT_ARM_DISARM (a flag:
-  the mode stays), DO_SET_MODE (custom mode: ``shared/modes.CUSTOM``,
-  ArduSub's numbers), DO_SET_STANDARD_MODE (MISSION: TARGET), DO_REPOSITION
-  (our convention, as COMMAND_LONG has no frame: param5 north, param6 east,
-  param7 down in metres, MAV_FRAME_LOCAL_NED; NaN keeps a coordinate),
-  PREFLIGHT_REBOOT_SHUTDOWN (param1 = 1 reboots, refused while armed),
-  SET_MESSAGE_INTERVAL (sets the matching ``SR_*`` rate), REQUEST_MESSAGE
-  (the heartbeat or a telemetry stream, now). A refusal's reason
-  is ``modes.REASONS.index(reason)`` in ``result_param2`` and a STATUSTEXT;
-- the handshake a ground station opens with (docs/design/handshake.md):
-  COMMAND_INT (as COMMAND_LONG; DO_REPOSITION in MAV_FRAME_LOCAL_NED only),
-  SET_MODE (acknowledged with command 11, as ArduPilot), REQUEST_DATA_STREAM
-  (ArduPilot's stream groups onto the ``SR_*`` rates), AUTOPILOT_VERSION
-  (REQUEST_MESSAGE 148, REQUEST_AUTOPILOT_CAPABILITIES; ``set_version``) and
-  HOME_POSITION, the release point (GET_HOME_POSITION, REQUEST_MESSAGE
-  242); COMMAND_ACK results are ArduPilot's (a refusal FAILED, arming an
-  armed vehicle ACCEPTED); a STATUSTEXT over 50 bytes goes in chunks;
-- the standard modes protocol, for ground stations that take the mode
-  names from the vehicle: AVAILABLE_MODES (REQUEST_MESSAGE 435; param2 0:
-  every mode, one a turn, else the mode of that index from 1) and
-  CURRENT_MODE (REQUEST_MESSAGE 436; and, once a ground station asked for
-  either, with every other heartbeat, 0.5 Hz, and at once on a mode
-  change), with MAV_STANDARD_MODE where one matches. Not before: to a
-  ground station whose dialect lacks them (MAVProxy's, pymavlink's
-  common.xml) a CURRENT_MODE is a frame whose sequence number pymavlink
-  cannot read, and it counted the next frame's as a loss (1.6 % of a
-  lossless link);
-- SET_POSITION_TARGET_LOCAL_NED (position bits) sets the target too;
-- the mission protocol (``mission.py``, ``mission``): the landing target
-  as a mission (home and one NAV_LAND) to download, upload and clear;
-  MISSION_CURRENT goes with the status stream;
-- ATT_POS_MOCAP: the position fix goes into ``fix`` ([x, y, z, qw, qx,
-  qy, qz], m and NED), ``fix_time_us`` and ``fix_count`` for the estimator,
-  and to ``on_fix(fix)`` if given;
-- TIMESYNC requests are answered; HEARTBEATs from the ground refresh
-  ``gcs_last_ms`` (the ground-silence failsafe reads it); RADIO_STATUS from
-  the radio is kept in ``radio`` ([rssi, remrssi, txbuf, noise, remnoise,
-  rxerrors, fixed]).
+- ``commands.py``: COMMAND_LONG and COMMAND_INT (COMMAND_ACK; a value that
+  is no number or out of range DENIED, a refusal by the vehicle's state
+  FAILED, as ArduPilot's);
+- ``mode_protocol.py``: SET_MODE, DO_SET_MODE, DO_SET_STANDARD_MODE and the
+  standard modes protocol (AVAILABLE_MODES, CURRENT_MODE: sent only once a
+  ground station asked for either; to a ground station whose dialect lacks
+  them a CURRENT_MODE is a frame whose sequence number pymavlink cannot
+  read, and it counted the next frame's as a loss);
+- ``param_protocol.py``: PARAM_REQUEST_LIST (streamed a few a cycle),
+  PARAM_REQUEST_READ, PARAM_SET (a NaN or infinite value, or one the
+  ``ParamTable`` refuses: the PARAM_VALUE echo carries the unchanged value,
+  and a STATUSTEXT says why);
+- ``mission.py``: the landing target as a mission (MISSION_ACK with the
+  INVALID_PARAMn naming the field);
+- ``position_input.py``: ATT_POS_MOCAP (a fix into ``fix``, ``fix_time_us``,
+  ``fix_count`` and ``on_fix(fix)``) and SET_POSITION_TARGET_LOCAL_NED
+  (the target): what is no place the vehicle can be is dropped, counted
+  (``fixes_refused``, ``targets_refused``) and told by one STATUSTEXT
+  every few seconds;
+- ``streams.py``: REQUEST_DATA_STREAM (ArduPilot's stream groups onto the
+  ``SR_*`` rates);
+- ``signing.py``: SETUP_SIGNING;
+- the log protocol: ``logs`` (``firmware/flightlog/transfer.py``);
+- here: HEARTBEATs from the ground refresh ``gcs_last_ms`` (the
+  ground-silence failsafe reads it), TIMESYNC requests are answered,
+  RADIO_STATUS is kept in ``radio`` ([rssi, remrssi, txbuf, noise,
+  remnoise, rxerrors, fixed]).
+
+Sent: the heartbeat (1 Hz), the telemetry streams at their ``SR_*`` rates,
+AUTOPILOT_VERSION and HOME_POSITION when asked for (``set_version``), a
+STATUSTEXT over 50 bytes in chunks.
 
 Loop load: SYS_STATUS ``load`` is ``Telemetry.load_permille``, the
 scheduler's share of each slot spent working in permille (what ArduPilot
@@ -80,9 +73,9 @@ only the key's holder changes or removes it. Without a key it is taken
 unsigned, as every command is then. ``on_setup_signing()`` (the firmware's
 flash record) is called after.
 
-Allocation: reading and framing allocate nothing but a 16-byte view per
-copy; handling a frame unpacks one tuple of its numbers (and boxes its
-floats). ``roboray-sim bench mavlink`` reports the bytes per frame.
+Allocation: reading and framing allocate nothing (the writer keeps a view
+of each frame length it sent); handling a frame unpacks one tuple of its
+numbers (and boxes its floats). ``roboray-sim bench mavlink`` reports the bytes per frame.
 """
 
 import struct
@@ -90,11 +83,20 @@ from array import array
 
 from roboray.shared import modes as M
 from roboray.shared import quat
+from roboray.shared.mavlink import commands, mode_protocol, param_protocol, position_input, streams
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.frame import Writer
 from roboray.shared.mavlink.mission import Mission
 from roboray.shared.mavlink.parser import Parser
-from roboray.shared.params import ERRORS
+from roboray.shared.mavlink.signing import handle_setup_signing
+from roboray.shared.mavlink.streams import N_STREAMS as _N_STREAMS
+from roboray.shared.mavlink.streams import STREAM_PARAMS as _STREAM_PARAMS
+from roboray.shared.mavlink.streams import S_ATTITUDE as _S_ATTITUDE
+from roboray.shared.mavlink.streams import S_BATTERY as _S_BATTERY
+from roboray.shared.mavlink.streams import S_POSITION as _S_POSITION
+from roboray.shared.mavlink.streams import S_SENSORS as _S_SENSORS
+from roboray.shared.mavlink.streams import S_SERVO as _S_SERVO
+from roboray.shared.mavlink.streams import S_STATUS as _S_STATUS
 
 try:
     from micropython import const
@@ -108,17 +110,6 @@ _FRAMES_PER_UPDATE = const(1)     # frames handled or built per update (see Endp
 _CREDIT_MAX = const(512000)       # line credit (milli-bytes): at most this much sent at once
 _ANSWERS = const(16)              # PARAM_VALUE answers waiting for their turn, at most
 _HEARTBEAT_MS = const(1000)
-_FORCE_MAGIC = const(21196)       # MAV_CMD_COMPONENT_ARM_DISARM param2: force
-
-# Stream groups and the parameter holding each one's rate
-_STREAM_PARAMS = ("SR_ATTITUDE", "SR_POSITION", "SR_SENSORS", "SR_SERVO", "SR_BATTERY", "SR_STATUS")
-_S_ATTITUDE = const(0)
-_S_POSITION = const(1)
-_S_SENSORS = const(2)
-_S_SERVO = const(3)
-_S_BATTERY = const(4)
-_S_STATUS = const(5)
-_N_STREAMS = const(6)
 
 # The frames the streams are made of, one bit each, in the order they go out
 # when several wait (the lowest bit first).
@@ -162,12 +153,6 @@ UNSIGNED_OK = (msg.MSG_RADIO_STATUS, 166)   # 166: RADIO (not in our table)
 #: A refusal is told by STATUSTEXT at most once this often (ms).
 REFUSAL_TEXT_MS = 10000
 _WHY = ("", "wrong key", "replayed or old", "far-future")   # Signing.reason
-_REASON_SIGNING_ARMED = "signing setup refused: disarm first"
-
-_REASON_REBOOT_ARMED = "reboot refused: disarm first"
-_REASON_BAD_MODE_FLAGS = "DO_SET_MODE needs MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"
-_REASON_BAD_TARGET = "target needs finite coordinates"
-_REASON_BAD_FRAME = "DO_REPOSITION needs MAV_FRAME_LOCAL_NED (no global position)"
 
 #: AUTOPILOT_VERSION's capabilities: what the vehicle does.
 CAPABILITIES = (msg.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | msg.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
@@ -179,33 +164,9 @@ CAPABILITIES = (msg.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | msg.MAV_PROTOCOL_CAPABILI
 _VERSION_HEAD = "<QQIIIIHH"
 _VERSION_HASH = const(36)
 _TEXT_LEN = const(50)             # STATUSTEXT text bytes
-_INT32_MAX = const(0x7FFFFFFF)
-_NAN = float("nan")
-# REQUEST_DATA_STREAM: ArduPilot's stream groups (MAV_DATA_STREAM id) -> our
-# stream number + 1 (0: none here). RAW_SENSORS: sensors; EXTENDED_STATUS:
-# status; RC_CHANNELS: servo; POSITION: position; EXTRA1: attitude; EXTRA3: battery.
-_DATA_STREAMS = b"\x00\x03\x06\x04\x00\x00\x02\x00\x00\x00\x01\x00\x05"
-
-
 def ticks_diff(a, b):
     """a - b on a 2**30 wrapping millisecond clock, as time.ticks_diff."""
     return ((a - b + _TICKS_HALF) & _TICKS_MASK) - _TICKS_HALF
-
-
-def _stream_of(msgid):
-    if msgid == msg.MSG_ATTITUDE or msgid == msg.MSG_ATTITUDE_QUATERNION:
-        return _S_ATTITUDE
-    if msgid == msg.MSG_LOCAL_POSITION_NED or msgid == msg.MSG_POSITION_TARGET_LOCAL_NED:
-        return _S_POSITION
-    if msgid == msg.MSG_SCALED_PRESSURE or msgid == msg.MSG_SCALED_IMU:
-        return _S_SENSORS
-    if msgid == msg.MSG_SERVO_OUTPUT_RAW:
-        return _S_SERVO
-    if msgid == msg.MSG_BATTERY_STATUS:
-        return _S_BATTERY
-    if msgid == msg.MSG_SYS_STATUS or msgid == msg.MSG_SYSTEM_TIME or msgid == msg.MSG_MISSION_CURRENT:
-        return _S_STATUS
-    return -1
 
 
 class Endpoint:
@@ -252,6 +213,9 @@ class Endpoint:
     was sent before (a credit of at most ``_CREDIT_MAX`` bytes), so nothing
     is dropped for want of room; answers always go.
     """
+
+    F_CURRENT_MODE = _F_CURRENT_MODE   # (for mode_protocol's requests)
+    F_AVAILABLE = _F_AVAILABLE
 
     def __init__(self, transport, params, modes, telemetry, signing=None,
                  compid=msg.MAV_COMP_ID_AUTOPILOT1, on_fix=None, rx_size=128, on_refresh=None,
@@ -327,6 +291,9 @@ class Endpoint:
         self.slot_max_us = -1
         # counters
         self.rejected = 0
+        self.fixes_refused = 0        # ATT_POS_MOCAP not a place the vehicle can be (position_input)
+        self.targets_refused = 0      # SET_POSITION_TARGET_LOCAL_NED refused (position_input)
+        self._input_text_ms = -1      # when a position input refusal was last told
         self.unsigned = 0             # unsigned frames refused (a key is set)
         self._refusal_ms = -1         # when a refusal was last told
         self.on_setup_signing = None  # called after SETUP_SIGNING changed key or clock
@@ -510,7 +477,7 @@ class Endpoint:
     def _send(self, msgid):
         w = self.writer
         n = w.finish(msgid)
-        self.transport.write(w._mv[0:n])   # (w.view(n), without the call)
+        self.transport.write(w.view(n))
         self._budget -= 1
         if self._bps:
             self._credit -= n * 1000
@@ -523,84 +490,9 @@ class Endpoint:
             self._refused(p, s)
             return
         self.handled += 1
-        pl = p.payload
-        if mid == msg.MSG_HEARTBEAT:
-            if p.sysid == self.params.get_int(self._p_gcs):
-                if self.gcs_last_ms < 0 or ticks_diff(self.now_ms, self.gcs_last_ms) > 2000:
-                    self._heartbeat_now()  # a ground station (re)appeared: answer at once
-                self.gcs_last_ms = self.now_ms
-        elif mid == msg.MSG_COMMAND_LONG:
-            if self._for_us(pl[30], pl[31]):
-                self._command(p)
-        elif mid == msg.MSG_PARAM_REQUEST_LIST:
-            if self._for_us(pl[0], pl[1]):
-                self._param_next = 0
-        elif mid == msg.MSG_PARAM_REQUEST_READ:
-            if self._for_us(pl[2], pl[3]):
-                index = pl[0] | (pl[1] << 8)
-                if index >= 0x8000:
-                    index = self.params.find(pl, 4, 16)
-                if 0 <= index < self.params.count():
-                    self._answer_param(index)
-        elif mid == msg.MSG_PARAM_SET:
-            if self._for_us(pl[4], pl[5]):
-                self._param_set(pl)
-        elif mid == msg.MSG_SET_POSITION_TARGET_LOCAL_NED:
-            if self._for_us(pl[50], pl[51]):
-                # position bits of type_mask (1, 2, 4) clear: a position target
-                if (pl[48] & 7) == 0 and pl[52] == msg.MAV_FRAME_LOCAL_NED:
-                    x, y, z = struct.unpack_from("<3f", pl, 4)
-                    self._set_target(x, y, z)
-        elif mid == msg.MSG_ATT_POS_MOCAP:
-            v = struct.unpack_from("<Q7f", pl, 0)
-            f = self.fix
-            f[0] = v[5]
-            f[1] = v[6]
-            f[2] = v[7]
-            f[3] = v[1]
-            f[4] = v[2]
-            f[5] = v[3]
-            f[6] = v[4]
-            self.fix_time_us = v[0]
-            self.fix_count += 1
-            if self.on_fix is not None:
-                self.on_fix(f)
-        elif mid == msg.MSG_TIMESYNC:
-            tc1, ts1 = struct.unpack_from("<qq", pl, 0)
-            if tc1 == 0:
-                w = self.writer
-                struct.pack_into(msg.TIMESYNC_FMT, w.buf, w.payload, self.now_ms * 1000000, ts1)
-                self._send(msg.MSG_TIMESYNC)
-        elif mid == msg.MSG_SETUP_SIGNING:
-            if self._for_us(pl[8], pl[9]):
-                self._setup_signing(pl)
-        elif mid == msg.MSG_RADIO_STATUS:
-            r = self.radio
-            r[0] = pl[4]
-            r[1] = pl[5]
-            r[2] = pl[6]
-            r[3] = pl[7]
-            r[4] = pl[8]
-            r[5] = pl[0] | (pl[1] << 8)
-            r[6] = pl[2] | (pl[3] << 8)
-            self.radio_count += 1
-        elif mid == msg.MSG_COMMAND_INT:
-            if self._for_us(pl[30], pl[31]):
-                self._command(p)
-        elif mid == msg.MSG_SET_MODE:
-            # (no target component: the system's autopilot answers, as ArduPilot's)
-            if pl[4] == self.sysid:
-                self.commands += 1
-                custom = pl[0] | (pl[1] << 8) | (pl[2] << 16) | (pl[3] << 24)
-                self._set_mode(p, msg.MSG_SET_MODE, pl[5], custom)
-        elif mid == msg.MSG_REQUEST_DATA_STREAM:
-            if self._for_us(pl[2], pl[3]):
-                self._data_stream(pl[4], pl[0] | (pl[1] << 8), pl[5])
-        elif msg.MSG_MISSION_ITEM <= mid <= msg.MSG_MISSION_ITEM_INT:
-            self.mission.handle(p)
-        elif msg.MSG_LOG_REQUEST_LIST <= mid <= msg.MSG_LOG_REQUEST_END:
-            if self.logs is not None:
-                self.logs.handle(p)
+        h = HANDLERS.get(mid)
+        if h is not None:
+            h(self, p)
 
     def _refused(self, p, s):
         """Count a frame signing refused; tell the first one each REFUSAL_TEXT_MS."""
@@ -615,45 +507,11 @@ class Endpoint:
         self.send_text(msg.MAV_SEVERITY_WARNING, "signing: %s msg %d from %d refused (%d)" % (
             why, p.msgid, p.sysid, self.rejected))
 
-    def _setup_signing(self, pl):
-        s = self.signing
-        if s is None:
-            return
-        if self.modes.armed:
-            self.send_text(msg.MAV_SEVERITY_WARNING, _REASON_SIGNING_ARMED)
-            return
-        key = bytes(pl[10:42])
-        off = True
-        for b in key:
-            if b:
-                off = False
-                break
-        s.set_key(None if off else key)
-        # initial_timestamp as 16-bit words: its 24-bit halves stay small ints
-        w0, w1, w2 = struct.unpack_from("<3H", pl, 0)
-        s.advance((w1 >> 8) | (w2 << 8), w0 | ((w1 & 0xFF) << 16))
-        s.synced = True
-        if self.on_setup_signing is not None:
-            self.on_setup_signing()
-        self.send_text(msg.MAV_SEVERITY_INFO, "signing off" if off else "signing key set")
-
     def _for_us(self, target_system, target_component):
         return (target_system == self.sysid or target_system == 0) and (
             target_component == self.writer.compid or target_component == 0)
 
     # ----------------------------------------------------------- parameters
-    def _param_set(self, pl):
-        params = self.params
-        i = params.find(pl, 6, 16)
-        if i < 0:
-            self.send_text(msg.MAV_SEVERITY_WARNING, "PARAM_SET: unknown parameter")
-            return
-        value = struct.unpack_from("<f", pl, 0)[0]
-        err = params.set(i, value)
-        if err:
-            self.send_text(msg.MAV_SEVERITY_WARNING, "%s: %s" % (params.name(i), _param_error(err)))
-        self._answer_param(i)
-
     def _answer_param(self, i):
         # the PARAM_VALUE of a read or a set goes out in the next update's
         # turn, first of what waits (now, if too many wait already)
@@ -670,159 +528,6 @@ class Endpoint:
         struct.pack_into(msg.PARAM_VALUE_FMT, w.buf, w.payload, params.get(i), params.count(), i,
                          params.name_bytes(i), params.type(i))
         self._send(msg.MSG_PARAM_VALUE)
-
-    # ------------------------------------------------------------- commands
-    def _command(self, p):
-        # COMMAND_LONG and COMMAND_INT share the layout of param1-4, param7 (z),
-        # the command and the target; COMMAND_INT's param5/6 are x/y (int32)
-        self.commands += 1
-        pl = p.payload
-        cmd = pl[28] | (pl[29] << 8)
-        if cmd == msg.MAV_CMD_COMPONENT_ARM_DISARM:
-            arm, force = struct.unpack_from("<2f", pl, 0)
-            # ArduPilot's results: arming an armed vehicle (or disarming a
-            # disarmed one) is ACCEPTED, a refusal FAILED, another param1
-            # UNSUPPORTED; the mode stays either way
-            if arm == 1.0:
-                result = self.modes.arm(force == _FORCE_MAGIC)
-            elif arm == 0.0:
-                result = self.modes.disarm()
-            else:
-                self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
-                return
-            self._ack_result(p, cmd, result)
-        elif cmd == msg.MAV_CMD_DO_SET_MODE:
-            base, custom = struct.unpack_from("<2f", pl, 0)
-            self._set_mode(p, cmd, int(base), int(custom))
-        elif cmd == msg.MAV_CMD_DO_SET_STANDARD_MODE:
-            # (the specification's answer to a standard mode we lack: FAILED)
-            self._ack_result(p, cmd, self.modes.request(M.from_standard(int(struct.unpack_from("<f", pl, 0)[0]))))
-        elif cmd == msg.MAV_CMD_DO_REPOSITION:
-            if p.msgid == msg.MSG_COMMAND_INT:
-                # x, y in metres x 1e4 (INT32_MAX: keep), z in metres, local frame only
-                if pl[32] != msg.MAV_FRAME_LOCAL_NED:
-                    self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_FRAME)
-                    return
-                x, y = struct.unpack_from("<2i", pl, 16)
-                n = _NAN if x == _INT32_MAX else x * 1e-4
-                e = _NAN if y == _INT32_MAX else y * 1e-4
-                d = struct.unpack_from("<f", pl, 24)[0]
-            else:
-                n, e, d = struct.unpack_from("<3f", pl, 16)
-            t = self.t.target_ned
-            if n != n:
-                n = t[0]
-            if e != e:
-                e = t[1]
-            if d != d:
-                d = t[2]
-            if n - n != 0 or e - e != 0 or d - d != 0:
-                self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_TARGET)
-                return
-            self._set_target(n, e, d)
-            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-        elif cmd == msg.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
-            what = struct.unpack_from("<f", pl, 0)[0]
-            if what != 1.0:
-                self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
-            elif self.modes.armed:
-                self._refuse(p, cmd, msg.MAV_RESULT_FAILED, _REASON_REBOOT_ARMED)
-            else:
-                self.reboot_requested = True
-                self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-        elif cmd == msg.MAV_CMD_SET_MESSAGE_INTERVAL:
-            mid, interval_us = struct.unpack_from("<2f", pl, 0)
-            k = _stream_of(int(mid))
-            if k < 0:
-                self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
-                return
-            rate = 0.0 if interval_us < 0 else (1e6 / interval_us if interval_us > 0 else 4.0)
-            err = self.params.set(self._p_rates[k], rate)
-            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED if err == 0 else msg.MAV_RESULT_DENIED, err)
-        elif cmd == msg.MAV_CMD_REQUEST_MESSAGE:
-            mid = int(struct.unpack_from("<f", pl, 0)[0])
-            if mid == msg.MSG_AUTOPILOT_VERSION or mid == msg.MSG_HOME_POSITION:
-                self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-                self._send_once(mid)
-                return
-            if mid == msg.MSG_AVAILABLE_MODES or mid == msg.MSG_CURRENT_MODE:
-                self._request_modes(p, cmd, mid, struct.unpack_from("<f", pl, 4)[0])
-                return
-            k = _stream_of(mid) if mid != msg.MSG_HEARTBEAT else -1
-            if k < 0 and mid != msg.MSG_HEARTBEAT:
-                self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
-                return
-            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-            # the answer goes now; the stream goes on a period from here
-            if k < 0:
-                self._heartbeat_now()
-            else:
-                self._send_stream(k)
-            self._wake = self.now_ms
-        elif cmd == msg.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
-            if struct.unpack_from("<f", pl, 0)[0] != 1.0:
-                self._ack(p, cmd, msg.MAV_RESULT_FAILED, 0)   # (ArduPilot's answer)
-                return
-            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-            self._send_once(msg.MSG_AUTOPILOT_VERSION)
-        elif cmd == msg.MAV_CMD_GET_HOME_POSITION:
-            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-            self._send_once(msg.MSG_HOME_POSITION)
-        elif cmd == msg.MAV_CMD_DO_SET_MISSION_CURRENT:
-            why = self.mission.set_current(int(struct.unpack_from("<f", pl, 0)[0]))
-            if why is None:
-                self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-            else:
-                self._refuse(p, cmd, msg.MAV_RESULT_FAILED, why)
-        else:
-            self._ack(p, cmd, msg.MAV_RESULT_UNSUPPORTED, 0)
-
-    def _set_mode(self, p, cmd, base, custom):
-        """DO_SET_MODE or SET_MODE (``cmd`` 11, the id ArduPilot acknowledges it with)."""
-        if not base & msg.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            self._refuse(p, cmd, msg.MAV_RESULT_DENIED, _REASON_BAD_MODE_FLAGS)
-            return
-        self._ack_result(p, cmd, self.modes.request(M.from_custom(custom)))
-
-    def _request_modes(self, p, cmd, mid, param2):
-        """REQUEST_MESSAGE of CURRENT_MODE, or of AVAILABLE_MODES: param2 0
-        every mode, else the one of that index (from 1); they go out paced,
-        one a turn, as stream frames do. Either starts CURRENT_MODE's stream."""
-        self._modes_asked = True
-        if mid == msg.MSG_CURRENT_MODE:
-            self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-            self._pending |= _F_CURRENT_MODE
-            return
-        n = len(M.MODES)
-        i = int(param2)
-        if not 0 <= i <= n:
-            self._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
-            return
-        self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
-        self._avail_next = i if i else 1
-        self._avail_last = i if i else n
-        self._pending |= _F_AVAILABLE
-
-    def _data_stream(self, stream_id, rate, start_stop):
-        """REQUEST_DATA_STREAM: ArduPilot's stream groups onto our ``SR_*`` rates (no answer)."""
-        if start_stop > 1:
-            return
-        hz = float(rate) if start_stop else 0.0
-        if stream_id == msg.MAV_DATA_STREAM_ALL:
-            for k in range(_N_STREAMS):
-                self._set_rate(k, hz)
-            return
-        k = _DATA_STREAMS[stream_id] - 1 if stream_id < len(_DATA_STREAMS) else -1
-        if k >= 0:
-            self._set_rate(k, hz)
-
-    def _set_rate(self, k, hz):
-        """Stream ``k`` at ``hz``, or its parameter's limit when beyond it."""
-        params = self.params
-        i = self._p_rates[k]
-        if params.set(i, hz):
-            hi = params.maximum(i)
-            params.set(i, hi if hz > hi else params.minimum(i))
 
     def _send_once(self, mid):
         """AUTOPILOT_VERSION or HOME_POSITION, now (asked for)."""
@@ -865,6 +570,7 @@ class Endpoint:
         self.sw_hash = bytes(h)
 
     def _set_target(self, n, e, d):
+        """The target, as given (the callers check it: ``position_input.set_target``)."""
         t = self.t
         t.target_ned[0] = n
         t.target_ned[1] = e
@@ -872,6 +578,7 @@ class Endpoint:
         t.has_target = True
         self.target_count += 1
 
+    # ------------------------------------------------------------- answers
     def _ack_result(self, p, cmd, result):
         if result[0]:
             self._ack(p, cmd, msg.MAV_RESULT_ACCEPTED, 0)
@@ -1044,7 +751,9 @@ class Endpoint:
             if refresh is not None:
                 refresh(_S_SERVO)
             s = t.servo_us
-            struct.pack_into(msg.SERVO_OUTPUT_RAW_FMT, b, o, (now * 1000) & 0xFFFFFFFF,
+            # time_usec wraps at 2**20 ms (1048 s): (now * 1000) & 0xFFFFFFFF
+            # made a long int on the board each frame; below 2**30 it is a small one
+            struct.pack_into(msg.SERVO_OUTPUT_RAW_FMT, b, o, (now & 0xFFFFF) * 1000,
                              s[0], s[1], s[2], s[3], 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
             self._send(msg.MSG_SERVO_OUTPUT_RAW)
         elif f == _F_HEARTBEAT:
@@ -1091,5 +800,68 @@ def _clamp16(x):
     return v
 
 
-def _param_error(err):
-    return ERRORS[err] if 0 <= err < len(ERRORS) else "error %d" % err
+# ---------------------------------------------------------------- the link's own
+def _heartbeat(ep, p):
+    """A HEARTBEAT from our ground station refreshes ``gcs_last_ms`` (the
+    ground-silence failsafe reads it)."""
+    if p.sysid == ep.params.get_int(ep._p_gcs):
+        if ep.gcs_last_ms < 0 or ticks_diff(ep.now_ms, ep.gcs_last_ms) > 2000:
+            ep._heartbeat_now()  # a ground station (re)appeared: answer at once
+        ep.gcs_last_ms = ep.now_ms
+
+
+def _timesync(ep, p):
+    """A TIMESYNC request (tc1 0) is answered with our clock (integers only)."""
+    tc1, ts1 = struct.unpack_from("<qq", p.payload, 0)
+    if tc1 == 0:
+        w = ep.writer
+        struct.pack_into(msg.TIMESYNC_FMT, w.buf, w.payload, ep.now_ms * 1000000, ts1)
+        ep._send(msg.MSG_TIMESYNC)
+
+
+def _radio_status(ep, p):
+    """RADIO_STATUS from the radio, kept in ``radio`` (integers only)."""
+    pl = p.payload
+    r = ep.radio
+    r[0] = pl[4]
+    r[1] = pl[5]
+    r[2] = pl[6]
+    r[3] = pl[7]
+    r[4] = pl[8]
+    r[5] = pl[0] | (pl[1] << 8)
+    r[6] = pl[2] | (pl[3] << 8)
+    ep.radio_count += 1
+
+
+def _mission(ep, p):
+    ep.mission.handle(p)
+
+
+def _logs(ep, p):
+    if ep.logs is not None:
+        ep.logs.handle(p)
+
+
+#: Every message the endpoint acts on, message id -> ``handler(ep, p)``; the
+#: handler checks its own fields (``fields.py``) before anything reaches state.
+HANDLERS = {
+    msg.MSG_HEARTBEAT: _heartbeat,
+    msg.MSG_COMMAND_LONG: commands.handle,
+    msg.MSG_COMMAND_INT: commands.handle,
+    msg.MSG_PARAM_REQUEST_LIST: param_protocol.handle_request_list,
+    msg.MSG_PARAM_REQUEST_READ: param_protocol.handle_request_read,
+    msg.MSG_PARAM_SET: param_protocol.handle_set,
+    msg.MSG_SET_POSITION_TARGET_LOCAL_NED: position_input.handle_set_position_target,
+    msg.MSG_ATT_POS_MOCAP: position_input.handle_att_pos_mocap,
+    msg.MSG_TIMESYNC: _timesync,
+    msg.MSG_SETUP_SIGNING: handle_setup_signing,
+    msg.MSG_RADIO_STATUS: _radio_status,
+    msg.MSG_SET_MODE: mode_protocol.handle_set_mode,
+    msg.MSG_REQUEST_DATA_STREAM: streams.handle_request_data_stream,
+}
+for _mid in (msg.MSG_MISSION_ITEM, msg.MSG_MISSION_REQUEST, msg.MSG_MISSION_SET_CURRENT,
+             msg.MSG_MISSION_REQUEST_LIST, msg.MSG_MISSION_COUNT, msg.MSG_MISSION_CLEAR_ALL,
+             msg.MSG_MISSION_ACK, msg.MSG_MISSION_REQUEST_INT, msg.MSG_MISSION_ITEM_INT):
+    HANDLERS[_mid] = _mission
+for _mid in (msg.MSG_LOG_REQUEST_LIST, msg.MSG_LOG_REQUEST_DATA, msg.MSG_LOG_ERASE, msg.MSG_LOG_REQUEST_END):
+    HANDLERS[_mid] = _logs

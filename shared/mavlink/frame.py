@@ -60,6 +60,9 @@ class Writer:
                 raise ValueError("%s must be 0..255, got %r" % (name, v))
         self.buf = bytearray(FRAME_MAX)
         self._mv = memoryview(self.buf)
+        # a view of each frame length, made the first time that length is
+        # sent: slicing a view for every frame allocated 16 bytes a frame
+        self._views = [None] * (FRAME_MAX + 1)
         self.sysid = sysid
         self.compid = compid
         self.signing = signing
@@ -138,5 +141,10 @@ class Writer:
         return n
 
     def view(self, n):
-        """The first ``n`` bytes of the buffer, without copying them."""
-        return self._mv[0:n]
+        """The first ``n`` bytes of the buffer, without copying them (a view
+        kept for each length: the same length again allocates nothing)."""
+        v = self._views[n]
+        if v is None:
+            v = self._mv[0:n]
+            self._views[n] = v
+        return v

@@ -99,7 +99,7 @@ the distance, else ``INVALID_PARAM6_Y``.
 Allocation: state in attributes and one ``array('f')`` made here; handling
 a frame unpacks one tuple and boxes its floats (as the endpoint's handling
 does); the status stream's MISSION_CURRENT, ``tick`` and asking again
-allocate nothing but the endpoint's 16-byte view of each frame written
+allocate nothing once each frame length was sent (the writer keeps its view)
 (``tests/test_mission.py`` measures them on MicroPython).
 Refusal texts are formatted when they are sent.
 """
@@ -138,6 +138,8 @@ M_PER_E7 = 0.011131884502145034
 #: A local frame's x and y in MISSION_ITEM_INT: metres x 1e7 (MAVProxy's and
 #: QGroundControl's encoding of every frame).
 LOCAL_SCALE = 1e7
+#: The farthest a local x or y goes (m): INT32_MAX / LOCAL_SCALE, rounded down.
+LOCAL_MAX_M = 214.7
 
 # MISSION_CURRENT.mission_state (MISSION_STATE) and mission_mode
 STATE_NO_MISSION = const(1)
@@ -411,33 +413,54 @@ class Mission:
             scale = 1.0 / LOCAL_SCALE if local else M_PER_E7
         else:
             x, y, z = struct.unpack_from("<fff", pl, _ITEM_X)
-            if x - x != 0.0 or y - y != 0.0:    # NaN or infinite
-                self._why = "mission item %d: the target needs finite x and y" % seq
-                return msg.MAV_MISSION_INVALID_PARAM5_X if x - x != 0.0 else msg.MAV_MISSION_INVALID_PARAM6_Y
             scale = 1.0 if local else 1e7 * M_PER_E7     # metres, or degrees
         n = x * scale
         e = y * scale
         d = 0.0 if z != z else (z if local else 0.0 - z)
-        params = self.ep.params
-        deepest = params.maximum(self._p_depth)
-        if not 0.0 <= d <= deepest:
-            self._why = ("mission item %d: bottom at %.1f m; 0 (CTL_DEPTH_M) to %.0f m below the surface%s"
-                         % (seq, d, deepest, "" if local else " (-z: z is the altitude above home)"))
-            return msg.MAV_MISSION_INVALID_PARAM7
-        bottom = d if d > 0.0 else params.get(self._p_depth)
-        reach = self.ratio * bottom
-        dist = math.sqrt(n * n + e * e)
-        if self.ratio > 0.0 and dist > reach:
-            self._why = ("mission: target %.2f m north, %.2f m east is %.2f m away, beyond the reach of a glide "
-                         "to a bottom at %.1f m%s: %.2f m (best glide ratio %.2f)"
-                         % (n, e, dist, bottom, "" if d > 0.0 else " (CTL_DEPTH_M)", reach, self.ratio))
-            return msg.MAV_MISSION_INVALID_PARAM5_X if abs(n) >= abs(e) else msg.MAV_MISSION_INVALID_PARAM6_Y
+        result = self.check_target(n, e, d)
+        if result != msg.MAV_MISSION_ACCEPTED:
+            why = self._why
+            if why.startswith("target "):       # where the target is: said of the mission
+                self._why = "mission: " + why
+            else:
+                self._why = "mission item %d: %s%s" % (seq, why, "" if local or result != msg.MAV_MISSION_INVALID_PARAM7
+                                                         else " (-z: z is the altitude above home)")
+            return result
         g = self._new
         g[0] = n
         g[1] = e
         g[2] = d
         self._new_set = True
         self._new_frame = frame
+        return msg.MAV_MISSION_ACCEPTED
+
+    def check_target(self, n, e, d):
+        """Whether a target ``n`` north, ``e`` east (m) over a bottom ``d`` m
+        deep (0: CTL_DEPTH_M's) can be flown to: MAV_MISSION_ACCEPTED, or the
+        INVALID_PARAMn naming the field at fault (``_why`` says why). Every
+        way a target comes in (a mission item, DO_REPOSITION,
+        SET_POSITION_TARGET_LOCAL_NED) goes through it."""
+        if n - n != 0.0 or e - e != 0.0:    # NaN or infinite (x - x is NaN then)
+            self._why = "the target needs finite x and y"
+            return msg.MAV_MISSION_INVALID_PARAM5_X if n - n != 0.0 else msg.MAV_MISSION_INVALID_PARAM6_Y
+        params = self.ep.params
+        deepest = params.maximum(self._p_depth)
+        if not 0.0 <= d <= deepest:         # (NaN fails too)
+            self._why = "bottom at %.1f m; 0 (CTL_DEPTH_M) to %.0f m below the surface" % (d, deepest)
+            return msg.MAV_MISSION_INVALID_PARAM7
+        # MISSION_ITEM_INT carries local x and y as metres x 1e7 in 32 bits:
+        # beyond LOCAL_MAX_M a download would wrap (1000 m read 141.0 m)
+        if not -LOCAL_MAX_M <= n <= LOCAL_MAX_M or not -LOCAL_MAX_M <= e <= LOCAL_MAX_M:
+            self._why = "target %.1f m north, %.1f m east; a local target is within %.1f m" % (n, e, LOCAL_MAX_M)
+            return msg.MAV_MISSION_INVALID_PARAM5_X if abs(n) >= abs(e) else msg.MAV_MISSION_INVALID_PARAM6_Y
+        bottom = d if d > 0.0 else params.get(self._p_depth)
+        reach = self.ratio * bottom
+        dist = math.sqrt(n * n + e * e)
+        if self.ratio > 0.0 and dist > reach:
+            self._why = ("target %.2f m north, %.2f m east is %.2f m away, beyond the reach of a glide "
+                         "to a bottom at %.1f m%s: %.2f m (best glide ratio %.2f)"
+                         % (n, e, dist, bottom, "" if d > 0.0 else " (CTL_DEPTH_M)", reach, self.ratio))
+            return msg.MAV_MISSION_INVALID_PARAM5_X if abs(n) >= abs(e) else msg.MAV_MISSION_INVALID_PARAM6_Y
         return msg.MAV_MISSION_ACCEPTED
 
     def _complete(self):

@@ -32,6 +32,7 @@ a big integer on the heap.
 """
 
 import hashlib
+import struct
 from array import array
 
 try:
@@ -263,3 +264,36 @@ class Signing:
         self.synced = True
         self.good += 1
         return True
+
+
+_REASON_SIGNING_ARMED = "signing setup refused: disarm first"
+
+
+def handle_setup_signing(ep, p):
+    """SETUP_SIGNING (MAVProxy's ``signing setup``) for the endpoint ``ep``: the
+    key (all zeros: off) and the clock moved up to ``initial_timestamp``;
+    refused while armed. Its fields are bytes and integers: nothing to check
+    for range. With a key set the endpoint takes it only signed with that key."""
+    pl = p.payload
+    if not ep._for_us(pl[8], pl[9]):
+        return
+    s = ep.signing
+    if s is None:
+        return
+    if ep.modes.armed:
+        ep.send_text(4, _REASON_SIGNING_ARMED)      # MAV_SEVERITY_WARNING
+        return
+    key = bytes(pl[10:42])
+    off = True
+    for b in key:
+        if b:
+            off = False
+            break
+    s.set_key(None if off else key)
+    # initial_timestamp as 16-bit words: its 24-bit halves stay small ints
+    w0, w1, w2 = struct.unpack_from("<3H", pl, 0)
+    s.advance((w1 >> 8) | (w2 << 8), w0 | ((w1 & 0xFF) << 16))
+    s.synced = True
+    if ep.on_setup_signing is not None:
+        ep.on_setup_signing()
+    ep.send_text(6, "signing off" if off else "signing key set")   # MAV_SEVERITY_INFO
