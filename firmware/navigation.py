@@ -55,7 +55,7 @@ from roboray.shared.estimator import Estimator
 from roboray.shared.estimator.estimator import JOB_NONE
 from roboray.shared.estimator import health as eh
 from roboray.shared.estimator.attitude import Attitude
-from roboray.shared.estimator.descent_model import TAU_S
+from roboray.shared.estimator.descent_model import from_params as descent_from_params
 from roboray.shared.estimator.horizontal import Horizontal
 from roboray.shared.params import DIVE_STATE, TYPE_REAL32, TYPE_UINT8, TYPE_UINT16
 
@@ -192,9 +192,10 @@ class Navigation:
         self._gnd = params.index("BARO1_GND_PRESS")
         self._delay_i = params.index("VISO_DELAY_MS")
         density = _WATER * _p(params, "BARO_SPEC_GRAV")
+        descent = descent_from_params(params)
         self.est = Estimator(
             attitude=Attitude(declination=_p(params, "COMPASS_DEC")),
-            horizontal=Horizontal(tau=TAU_S),
+            horizontal=Horizontal(tau=descent.tau_s), descent=descent,
             imu_position=(_p(params, "INS_POS1_X"), _p(params, "INS_POS1_Y"), _p(params, "INS_POS1_Z")),
             port_position=(_p(params, "BARO_POS_X"), _p(params, "BARO_POS_Y"), _p(params, "BARO_POS_Z")),
             fluid_density=density, surface_pressure_pa=params.get(self._gnd),

@@ -70,4 +70,14 @@ CONTROL = (
     ("CTL_BS_KV2", TYPE_REAL32, 1.0, 0.0, 1000.0),       # backstepping: K's weight on the y_c velocity
 )
 
-PARAMS = LINK + STREAMS + FAILSAFE + MODES + CONTROL
+#: Dead reckoning: the descent model's table (shared/estimator/descent_model.py,
+#: whose constants are these defaults; roboray-sim identify --params-out fits them).
+DESCENT = (
+    ("DR_GLIDE_K0", TYPE_REAL32, -2.462, -10.0, 10.0),   # glide gain K with the wings flat (mean fold 0 deg)
+    ("DR_GLIDE_K45", TYPE_REAL32, -1.069, -10.0, 10.0),  # K at a mean fold of 45 deg
+    ("DR_GLIDE_K90", TYPE_REAL32, 0.323, -10.0, 10.0),   # K at a mean fold of 90 deg
+    ("DR_DIFF_K", TYPE_REAL32, 0.422, 0.0, 2.0),         # glide per unit descent speed per 90 deg of differential
+    ("DR_TAU", TYPE_REAL32, 0.0, 0.0, 5.0),              # s, lag of the horizontal velocity behind the model
+)
+
+PARAMS = LINK + STREAMS + FAILSAFE + MODES + CONTROL + DESCENT

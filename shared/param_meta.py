@@ -188,6 +188,21 @@ _p("VISO_DELAY_MS", "Position fix delay", "ms",
    "Time from a position fix's measurement to its arrival at the vehicle (tracker plus radio).",
    user="Advanced")
 
+# ---------------------------------------------------------------- dead reckoning
+_p("DR_GLIDE_K0", "Descent model: glide gain, wings flat", "",
+   "How fast the vehicle glides sideways when tilted, per unit descent speed and tangent of the tilt, with "
+   "the wings' mean fold at 0 deg (linear in the fold between the rows). The estimator dead-reckons with it "
+   "where no position fix arrives. Fit it to your vehicle: roboray-sim identify --params-out.", user="Advanced")
+_p("DR_GLIDE_K45", "Descent model: glide gain, 45 deg fold", "",
+   "The glide gain (as DR_GLIDE_K0) with the wings' mean fold at 45 deg.", user="Advanced")
+_p("DR_GLIDE_K90", "Descent model: glide gain, wings folded", "",
+   "The glide gain (as DR_GLIDE_K0) with the wings' mean fold at 90 deg.", user="Advanced")
+_p("DR_DIFF_K", "Descent model: differential glide", "",
+   "Horizontal glide per unit descent speed per 90 deg of differential fold (wing 1 less wing 3 along x, "
+   "wing 2 less wing 4 along y).", user="Advanced")
+_p("DR_TAU", "Descent model: lag", "s",
+   "Lag of the horizontal velocity behind the descent model's (0: none).", user="Advanced")
+
 # ---------------------------------------------------------------- flight log
 _p("LOG_BITMASK", "Log bitmask", "",
    "Which periodic records the on-board log keeps (events, modes, texts and parameters always): "

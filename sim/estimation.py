@@ -201,20 +201,21 @@ from roboray.shared.estimator import Estimator
 from roboray.shared.estimator.attitude import Attitude
 from roboray.shared.estimator.horizontal import Horizontal
 from roboray.shared.estimator.vertical import Vertical
-from roboray.shared.estimator.descent_model import TAU_S
+from roboray.shared.estimator.descent_model import DescentModel
 
 
 def build(cfg):
+    descent = DescentModel(**cfg["descent"]) if "descent" in cfg else DescentModel()
     hor = dict(cfg["horizontal"])
     if "tau" not in hor:
-        hor["tau"] = TAU_S
+        hor["tau"] = descent.tau_s
     if cfg.get("attitude_filter") == "mekf":
         from roboray.shared.estimator.mekf import Mekf
         att = Mekf(**cfg["attitude"])
     else:
         att = Attitude(**cfg["attitude"])
     est = Estimator(attitude=att, vertical=Vertical(**cfg["vertical"]),
-                    horizontal=Horizontal(**hor), **cfg["estimator"])
+                    horizontal=Horizontal(**hor), descent=descent, **cfg["estimator"])
     est.set_mag_calibration(cfg["mag_offset"], cfg["mag_matrix"])
     est.zero_depth(cfg["surface_pressure_pa"], 0.0)
     return est

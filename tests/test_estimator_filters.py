@@ -129,7 +129,9 @@ def test_differential_glide_matches_the_trims():
     for wings_deg in ((0, 45, 90, 45), (0, 0, 90, 90)):
         wings = np.radians(wings_deg)
         trim = find_trims(model, wings, settle_s=20.0)[0]
-        gx, gy = descent_model.glide_vector(*wings)
+        g = [0.0, 0.0]
+        descent_model.glide_vector(*wings, g)
+        gx, gy = g
         h = trim.horizontal_velocity_body / trim.descent_speed
         # bearings on the circle: with no lateral glide, 180 and -180 are one
         # bearing, and the sign of a zero decides which atan2 returns

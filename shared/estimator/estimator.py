@@ -20,7 +20,7 @@ from array import array
 
 from roboray.shared.estimator import health as _h
 from roboray.shared.estimator.attitude import HEADING_REJECTED_INNOVATION, HEADING_USED, Attitude
-from roboray.shared.estimator.descent_model import TAU_S, glide_gain, glide_vector
+from roboray.shared.estimator.descent_model import DescentModel
 from roboray.shared.estimator.horizontal import FIX_REJECTED, FIX_TOO_OLD, Horizontal
 from roboray.shared.estimator.ticks import ticks_diff
 from roboray.shared.estimator.vertical import Vertical
@@ -98,6 +98,9 @@ class Estimator:
     ----------
     attitude, vertical, horizontal:
         The three filters; ``None`` builds each with its defaults.
+    descent:
+        The descent model (``descent_model.DescentModel``, the firmware's
+        from its ``DR_*`` parameters); ``None``: today's table.
     imu_position, port_position:
         IMU and pressure port in the body frame (m, from the centre of
         buoyancy).
@@ -124,7 +127,7 @@ class Estimator:
         Variances above which an estimate stops being valid.
     """
 
-    def __init__(self, attitude=None, vertical=None, horizontal=None,
+    def __init__(self, attitude=None, vertical=None, horizontal=None, descent=None,
                  imu_position=(0.0, 0.0, -0.045), port_position=(0.0, 0.0, -0.05), fluid_density=1000.0,
                  surface_pressure_pa=101325.0, startup_s=8.0, servo_hold_s=0.3,
                  timeouts_us=(_h.TIMEOUT_IMU_US, _h.TIMEOUT_MAG_US, _h.TIMEOUT_DEPTH_US, _h.TIMEOUT_FIX_US),
@@ -139,7 +142,10 @@ class Estimator:
             raise ValueError("timeouts_us needs 4 positive tick counts, got %r" % (timeouts_us,))
         self.att = attitude if attitude is not None else Attitude()
         self.vert = vertical if vertical is not None else Vertical()
-        self.hor = horizontal if horizontal is not None else Horizontal(tau=TAU_S)
+        #: The descent model (``descent_model.DescentModel``: the ``DR_*`` parameters' table).
+        self.descent = descent if descent is not None else DescentModel()
+        self.hor = horizontal if horizontal is not None else Horizontal(tau=self.descent.tau_s)
+        self._glide = array("f", [0.0, 0.0])
 
         # ----- outputs, written every IMU step
         #: Body -> NED quaternion [w, x, y, z].
@@ -220,7 +226,7 @@ class Estimator:
         # ----- time keeping
         self._wings = [0.0, 0.0, 0.0, 0.0]
         self._wings_changed = False
-        self.hor.set_gain(glide_gain(0.0))
+        self.hor.set_gain(self.descent.glide_gain(0.0))
         self._reset_times()
 
     def _reset_times(self):
@@ -569,8 +575,10 @@ class Estimator:
         if self._wings_changed:
             self._wings_changed = False
             w = self._wings
-            gx, gy = glide_vector(w[0], w[1], w[2], w[3])
-            hor.set_gain(glide_gain((w[0] + w[1] + w[2] + w[3]) * _QUARTER_DEG_PER_RAD), gx, gy)
+            d = self.descent
+            g = self._glide
+            d.glide_vector(w[0], w[1], w[2], w[3], g)
+            hor.set_gain(d.glide_gain((w[0] + w[1] + w[2] + w[3]) * _QUARTER_DEG_PER_RAD), g[0], g[1])
         # first-order model of the Mahony loops' errors over one period:
         # var <- a var + b, from d var/dt = q + k^2 r - 2 k var
         if att.accel_used:
