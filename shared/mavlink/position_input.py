@@ -11,7 +11,7 @@ refused is dropped, counted (``Endpoint.fixes_refused``,
 - ATT_POS_MOCAP: x, y, z (m, NED from the release point) finite, north and
   east within ``mission.LOCAL_MAX_M`` (where a target can be), z within
   ``FIX_UP_M`` above the surface and CTL_DEPTH_M's maximum below it; the
-  quaternion finite. A NaN fused made the position NaN, the controller
+  quaternion's components within +-1. A NaN fused made the position NaN, the controller
   failed and the vehicle went to FAILSAFE.
 - SET_POSITION_TARGET_LOCAL_NED (position bits, MAV_FRAME_LOCAL_NED): the
   mission item's check (``Mission.check_target``): finite, reachable by a
@@ -32,6 +32,8 @@ FIX_UP_M = 2.0
 #: A refusal of a streamed message is told by STATUSTEXT at most this often (ms).
 REFUSAL_TEXT_MS = 5000
 
+# a unit quaternion's components are within +-1 (some slack for a sender's rounding)
+_Q_MAX = 1.01
 _TICKS_MASK = 0x3FFFFFFF
 _TICKS_HALF = 0x20000000
 
@@ -46,8 +48,8 @@ def handle_att_pos_mocap(ep, p):
     deepest = ep.params.maximum(ep.mission._p_depth)
     # (x - x is NaN for NaN and the infinities; NaN fails every comparison)
     if not (-LOCAL_MAX_M <= x <= LOCAL_MAX_M and -LOCAL_MAX_M <= y <= LOCAL_MAX_M
-            and -FIX_UP_M <= z <= deepest and v[1] - v[1] == 0.0 and v[2] - v[2] == 0.0
-            and v[3] - v[3] == 0.0 and v[4] - v[4] == 0.0):
+            and -FIX_UP_M <= z <= deepest and -_Q_MAX <= v[1] <= _Q_MAX and -_Q_MAX <= v[2] <= _Q_MAX
+            and -_Q_MAX <= v[3] <= _Q_MAX and -_Q_MAX <= v[4] <= _Q_MAX):
         ep.fixes_refused += 1
         if _may_tell(ep):
             ep.send_text(msg.MAV_SEVERITY_WARNING, "ATT_POS_MOCAP refused: x %.1f y %.1f z %.1f q %.2f (%d)"
