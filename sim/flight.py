@@ -103,6 +103,9 @@ class FlightSpec:
     water: str = "fresh"
     radio_model: Optional[str] = None
     conductivity: Optional[float] = None
+    #: The firmware's descent model, ((DR_* parameter, value), ...): the
+    #: estimator dead-reckons with it (``descent_model.PARAM_NAMES``); () today's table
+    descent: tuple = ()
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -566,6 +569,16 @@ class Flight:
         return np.degrees(np.arccos(np.clip(r[:, 2, 2], -1.0, 1.0)))
 
 
+def descent_config(params: dict) -> dict:
+    """The replay's ``descent`` config from DR_* parameters (today's
+    table where one is missing)."""
+    from roboray.shared.estimator.descent_model import DEFAULT, PARAM_NAMES
+
+    k = [params.get(PARAM_NAMES[i], DEFAULT.gain[i]) for i in range(3)]
+    return {"glide_gain": k, "diff_gain": params.get(PARAM_NAMES[3], DEFAULT.diff_gain),
+            "tau_s": params.get(PARAM_NAMES[4], DEFAULT.tau_s)}
+
+
 def vehicle_params(spec: FlightSpec):
     from roboray.sim.vehicle import load_params
 
@@ -656,6 +669,8 @@ def fly(spec: FlightSpec, record_every: int = 1, depth=None) -> Flight:
                            wing_rates=np.zeros((k_release + 1, 4)), imu_position_body=model.imu[0] - cb,
                            port_position_body=model.port[0] - cb)
         config = E.estimator_config(sensors.logs(spec.hold_s), hold_truth, scenario)
+        if spec.descent:
+            config["descent"] = descent_config(dict(spec.descent))
         ns = E.replay_namespace()
         est = ns["build"](config)
     out = array("f", [passive] * 4)

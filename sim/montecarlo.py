@@ -62,7 +62,8 @@ def _payload_height_for_ell(params, factor: float) -> float:
 
 
 def draws(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, controller: str = "cascade",
-          truth: bool = False, link: Optional[tuple] = None) -> list[Draw]:
+          truth: bool = False, link: Optional[tuple] = None, vehicle=None,
+          firmware: Optional[dict] = None) -> list[Draw]:
     """``runs`` target landings under random model errors: added mass (every
     added-mass and added-inertia coefficient), C_D, ell (through the
     payload's height) and the servo lag each off by up to +-10 %, the
@@ -70,12 +71,20 @@ def draws(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, 
     a target ``distance`` m from the release in a random direction, a
     random heading at release. ``link``: (water, radio model, conductivity
     or None): the fixes cross the radio into that water
-    (``FlightSpec.radio_model``); None: they all arrive."""
+    (``FlightSpec.radio_model``); None: they all arrive. ``vehicle``: the
+    truth's ``VehicleParams`` the errors are drawn around (None: the
+    reference); ``firmware``: the firmware's parameters (a parameter file's),
+    of which the flight uses the descent model (DR_*) and the controller's
+    gains (CTL_*)."""
     if runs < 1:
         raise ValueError("runs must be at least 1, got %r" % runs)
     from roboray.sim.vehicle import load_params
 
-    base = load_params()
+    base = vehicle if vehicle is not None else load_params()
+    whole = tuple((f.name, getattr(base, f.name)) for f in dataclasses.fields(base)) if vehicle is not None else ()
+    firmware = firmware or {}
+    descent = tuple(sorted((k, float(v)) for k, v in firmware.items() if k.startswith("DR_")))
+    gains = tuple(sorted((k, float(v)) for k, v in firmware.items() if k.startswith("CTL_")))
     rng = np.random.default_rng([seed, 7])
     out = []
     for i in range(runs):
@@ -88,8 +97,8 @@ def draws(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, 
         spec = FlightSpec(
             controller=controller, mode="target", target=(distance * math.cos(bearing), distance * math.sin(bearing)),
             depth=depth, truth=truth, seed=int(seed * 100000 + i), heading_deg=float(rng.uniform(0.0, 360.0)),
-            vehicle=tuple((k, float(v)) for k, v in vehicle), tracker_noise_m=float(rng.uniform(0.01, 0.04)),
-            **link_fields(link))
+            vehicle=whole + tuple((k, float(v)) for k, v in vehicle),
+            tracker_noise_m=float(rng.uniform(0.01, 0.04)), descent=descent, ctl=gains, **link_fields(link))
         out.append(Draw(spec, tuple(float(x) for x in e)))
     return out
 
@@ -138,16 +147,30 @@ def landing_row(draw: Draw) -> dict:
 
 
 def campaign(runs: int, seed: int = 0, depth: float = 10.0, distance: float = 2.0, controller: str = "cascade",
-             truth: bool = False, link: Optional[tuple] = None):
+             truth: bool = False, link: Optional[tuple] = None, vehicle_file: Optional[str] = None,
+             params_file: Optional[str] = None):
     """The landings of ``draws`` as a campaign (``sim/campaign``); its
-    parameters name it in a results file."""
+    parameters name it in a results file (the vehicle and parameter
+    files by their paths, only when given). ``vehicle_file``: the truth's
+    vehicle (a Python vehicle file); ``params_file``: the firmware's
+    parameters (ArduPilot's format, ``ground/paramfile.py``)."""
+    from roboray.ground import paramfile
     from roboray.sim.campaign import Campaign
+    from roboray.sim.vehicle import load_params
+
+    vehicle = load_params(vehicle_file) if vehicle_file else None
+    firmware = paramfile.load(params_file) if params_file else None
+    files = {}
+    if vehicle_file:
+        files["vehicle"] = vehicle_file
+    if params_file:
+        files["params"] = params_file
 
     params = {"runs": runs, "seed": seed, "depth_m": depth, "distance_m": distance, "controller": controller,
               "estimator": "truth" if truth else "board estimator", "model_error": MODEL_ERROR,
-              **link_params(link)}
-    return Campaign("montecarlo", params, draws(runs, seed, depth, distance, controller, truth, link), landing_row,
-                    COLUMNS)
+              **link_params(link), **files}
+    return Campaign("montecarlo", params, draws(runs, seed, depth, distance, controller, truth, link, vehicle,
+                                                firmware), landing_row, COLUMNS)
 
 
 def summary(rows: Sequence[dict]) -> dict:

@@ -182,8 +182,12 @@ def do_montecarlo(args: argparse.Namespace) -> None:
     from roboray.sim.commands.radio import campaign_link
 
     link = campaign_link(args)
-    campaign = MC.campaign(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
-                           controller=args.controller, truth=args.truth, link=link)
+    try:
+        campaign = MC.campaign(args.runs, seed=args.seed, depth=args.depth, distance=args.distance,
+                               controller=args.controller, truth=args.truth, link=link, vehicle_file=args.vehicle,
+                               params_file=args.params)
+    except (OSError, ValueError) as exc:   # the vehicle or parameter file: its own one-line reason
+        raise UsageError("montecarlo: %s" % exc)
     notice = C.stderr_notice()
     with contextlib.ExitStack() as stack, C.cli_errors():
         bar = [progress.QUIET]
@@ -450,6 +454,11 @@ def register(sub, bench) -> None:
     p.add_argument("--water", choices=("fresh", "sea"), default="fresh",
                    help="fresh (default) or sea water: sea brings the radio link (fixes stop a decimetre down)")
     add_link_options(p, ground=False)
+    p.add_argument("--vehicle", metavar="FILE.py",
+                   help="the truth's vehicle file, the model errors drawn around it (default: the reference)")
+    p.add_argument("--params", metavar="FILE.parm",
+                   help="the firmware's parameter file (roboray-ground param save's format): the flights use its "
+                        "descent model (DR_*, e.g. from roboray-sim identify --params-out) and controller gains (CTL_*)")
     p.add_argument("--results", type=results_file, metavar="FILE.csv|FILE.parquet",
                    help="one row a run (its drawn errors and outcomes), written as each lands, and the summary "
                         "beside it (FILE.summary.json); run again, the same command continues from the rows there")
