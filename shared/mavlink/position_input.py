@@ -9,8 +9,10 @@ refused is dropped, counted (``Endpoint.fixes_refused``,
 (ArduPilot's way with a bad stream: no flood of texts at 20 Hz).
 
 - ATT_POS_MOCAP: x, y, z (m, NED from the release point) finite, north and
-  east within ``mission.LOCAL_MAX_M`` (where a target can be), z within
-  ``FIX_UP_M`` above the surface and CTL_DEPTH_M's maximum below it; the
+  east within ``mission.LOCAL_MAX_M`` (where a target can be), z NaN (not
+  measured: the twin's fixes and a surface radio's, the depth sensor gives
+  depth) or within ``FIX_UP_M`` above the surface and CTL_DEPTH_M's
+  maximum below it; the
   quaternion's components within +-1. A NaN fused made the position NaN, the controller
   failed and the vehicle went to FAILSAFE.
 - SET_POSITION_TARGET_LOCAL_NED (position bits, MAV_FRAME_LOCAL_NED): the
@@ -48,7 +50,7 @@ def handle_att_pos_mocap(ep, p):
     deepest = ep.params.maximum(ep.mission._p_depth)
     # (x - x is NaN for NaN and the infinities; NaN fails every comparison)
     if not (-LOCAL_MAX_M <= x <= LOCAL_MAX_M and -LOCAL_MAX_M <= y <= LOCAL_MAX_M
-            and -FIX_UP_M <= z <= deepest and -_Q_MAX <= v[1] <= _Q_MAX and -_Q_MAX <= v[2] <= _Q_MAX
+            and (z != z or -FIX_UP_M <= z <= deepest) and -_Q_MAX <= v[1] <= _Q_MAX and -_Q_MAX <= v[2] <= _Q_MAX
             and -_Q_MAX <= v[3] <= _Q_MAX and -_Q_MAX <= v[4] <= _Q_MAX):
         ep.fixes_refused += 1
         if _may_tell(ep):

@@ -1054,7 +1054,7 @@ class Twin:
             "power_cuts": br.get("power_cuts"),
             "crashes": br.get("crashes"),
             "task_errors": br.get("task_errors"),
-            "failsafes": self.failsafe_log,
+            "failsafes": self._failsafes(g.seen.texts),
             "failsafes_cleared": self.cleared_log,
             "modes": self.mode_log,
             "arming": self.arming_log,
@@ -1096,6 +1096,25 @@ class Twin:
         if report["interrupted"]:
             report["interrupted_at_s"] = round(w.t, 3)
         return report
+
+    def _failsafes(self, texts) -> list:
+        """Every cause that put the vehicle in FAILSAFE: the failsafe monitor's
+        (``failsafe_log``, from its bits) and the others the firmware enters
+        FAILSAFE for without one ("controller failed: FAILSAFE mode"), named
+        from the STATUSTEXT that says so (the ground hears it within a few
+        seconds of the mode change; "unexplained" when none does)."""
+        out = list(self.failsafe_log)
+        for t, mode in self.mode_log:
+            if mode != "FAILSAFE" or any(abs(f["t"] - t) <= 0.5 for f in self.failsafe_log):
+                continue
+            name = "unexplained"
+            for when, _sev, text in texts:
+                if t - 0.5 <= when <= t + 3.0 and text.endswith(": FAILSAFE mode") and not text.startswith("Failsafe: "):
+                    name = text[:-len(": FAILSAFE mode")]
+                    break
+            out.append({"name": name, "t": t})
+        out.sort(key=lambda f: f["t"])
+        return out
 
     def _velocity_error(self) -> dict:
         """Horizontal velocity of the centre of buoyancy against the set point,
