@@ -22,6 +22,7 @@ TOPICS = (
     "roboray.sim.commands.sweep",
     "roboray.sim.commands.board",
     "roboray.sim.commands.sil",
+    "roboray.sim.commands.identify",
     "roboray.sim.commands.radio",
 )
 

@@ -60,7 +60,7 @@ class Scenario:
 
 STANDARD = Scenario()
 
-def dynamics_descent(seed: int, flight_s: float = FLIGHT_S, dt: float = 0.005) -> Truth:
+def dynamics_descent(seed: int, flight_s: float = FLIGHT_S, dt: float = 0.005, params=None) -> Truth:
     """The standard flight from the dynamics model (``roboray.sim.dynamics``):
     released at rest just under the surface with a random heading and a
     tilt of up to 3 deg, wings moved every 6-12 s, smoothly over 0.6-1.2 s
@@ -71,12 +71,13 @@ def dynamics_descent(seed: int, flight_s: float = FLIGHT_S, dt: float = 0.005) -
     feathering and a new glide that turns slowly. (Arbitrary asymmetric
     configurations spiral at up to 1 rad/s; a controller does not fly them.) Referenced to the centre of
     buoyancy with flat wings, the point the estimator reports; then the
-    ``HOLD_S`` still segment is prepended."""
+    ``HOLD_S`` still segment is prepended. ``params``: the vehicle
+    (``VehicleParams``; None: the reference)."""
     from roboray.sim.dynamics import Model, quat_from_axis_angle
     from roboray.sim.simulate import simulate
 
     rng = np.random.default_rng([seed, 7])
-    model = Model(None)
+    model = Model(params)
     vehicle = model.vehicles[0]
     cb = vehicle.centre_of_buoyancy(np.zeros(4))
     heading = rng.uniform(-np.pi, np.pi)
