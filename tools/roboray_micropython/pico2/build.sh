@@ -137,9 +137,28 @@ python3 "$UF2TOOL" check "$HERE/roboray-pico2.uf2"
 (cd "$HERE" && sha256sum roboray-pico2.uf2 > roboray-pico2.uf2.sha256)
 SHA=$(cut -d' ' -f1 "$HERE/roboray-pico2.uf2.sha256")
 
-# What the board reports once it runs this image (os.uname(), sys.implementation).
-VERSION="$MP_GIT_TAG on $(date -u -d "@$SOURCE_DATE_EPOCH" +%Y-%m-%d)"
-MACHINE="$(sed -n 's/^#define MICROPY_HW_BOARD_NAME *"\(.*\)"$/\1/p' "$BOARD_DIR/mpconfigboard.h") with RP2350"
+# What the board reports once it runs this image, as extmod/modos.c and
+# py/modsys.c build it: os.uname().version is MICROPY_GIT_TAG " on "
+# MICROPY_BUILD_DATE MICROPY_BUILD_TYPE_PAREN (" (" MICROPY_BUILD_TYPE ")"
+# where the port sets one: rp2 sets compiler and build type),
+# os.uname().machine MICROPY_HW_BOARD_NAME " with " MICROPY_HW_MCU_NAME;
+# read through the preprocessor with the build's flags, as above.
+UNAME=$(printf '%s\n' '#include "py/mpconfig.h"' '#include "genhdr/mpversion.h"' \
+        '#ifdef MICROPY_BUILD_TYPE' '#define ROBORAY_PAREN " (" MICROPY_BUILD_TYPE ")"' '#else' '#define ROBORAY_PAREN' '#endif' \
+        'ROBORAY_VERSION MICROPY_GIT_TAG " on " MICROPY_BUILD_DATE ROBORAY_PAREN' \
+        'ROBORAY_MACHINE MICROPY_HW_BOARD_NAME " with " MICROPY_HW_MCU_NAME' |
+    eval arm-none-eabi-gcc -E -P $(sed -n 's/^C_DEFINES = //p; s/^C_INCLUDES = //p; s/^C_FLAGS = //p' "$FLAGS_MAKE") -x c - |
+    sed -n 's/^ROBORAY_\(VERSION\|MACHINE\) *"/\1 "/p' | sed 's/" *"//g; s/"$//; s/ "/ /')
+VERSION=$(echo "$UNAME" | sed -n 's/^VERSION //p')
+MACHINE=$(echo "$UNAME" | sed -n 's/^MACHINE //p')
+# Both strings are in the image as the C strings the board prints.
+python3 - "$ELF" "$VERSION" "$MACHINE" <<'PY'
+import sys
+elf = open(sys.argv[1], "rb").read()
+for s in sys.argv[2:]:
+    if not s or (s.encode() + b"\0") not in elf:
+        sys.exit("identity string %r is not in the image" % s)
+PY
 cat > "$HERE/roboray-pico2.json" <<INFO
 {
   "uf2": "roboray-pico2.uf2",
