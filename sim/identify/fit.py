@@ -365,9 +365,11 @@ def identify(logs: list, base: VehicleParams, names: tuple = PM.DEFAULT_FIT,
     iterations = 0
     active = names
     x_rest = x_start[problem.P:]
+    x_par = dict.fromkeys(names, 0.0)
     while True:
         problem = Problem(sh, base, active, dict(SIGMA0))
-        x = np.concatenate([np.zeros(problem.P), x_rest])
+        # a refit without an unseen parameter starts where the last ended
+        x = np.concatenate([[x_par[n] for n in active], x_rest])
         sol = _solve(problem, x, done)
         iterations += sol.nfev
         problem.sigma = group_sigma(problem.raw(sol.x))
@@ -384,6 +386,7 @@ def identify(logs: list, base: VehicleParams, names: tuple = PM.DEFAULT_FIT,
             unseen_sigma[n] = float(sig[worst] * problem.typical[worst])
             active = tuple(a for a in active if a != n)
             x_rest = sol.x[problem.P:]
+            x_par = dict(zip(problem.names, sol.x[:problem.P]))
             if active:
                 continue
         break
