@@ -44,7 +44,7 @@ import pytest  # noqa: E402
 from pymavlink.dialects.v20 import common as pm  # noqa: E402
 
 from roboray.shared import modes as M  # noqa: E402
-from roboray.shared.mavlink.mission import LOCAL_MAX_M  # noqa: E402
+from roboray.shared.mavlink.fields import LOCAL_MAX_M  # noqa: E402
 
 BAD = (NAN, INF, -INF, 1e30, -1e30)
 

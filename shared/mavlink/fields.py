@@ -7,8 +7,15 @@ here first and refuses it with its own protocol's answer (COMMAND_ACK,
 MISSION_ACK, PARAM_VALUE, STATUSTEXT: the module of each protocol says
 which).
 
-Allocation-free: the checks compare and subtract, no more.
+Allocation-free: the checks compare and subtract, no more. A leaf module
+(it imports nothing): the handlers import it without deepening the import
+chain, which RoboRay MicroPython's small C stack bounds.
 """
+
+#: The farthest a local x or y goes (m): MISSION_ITEM_INT carries them as
+#: metres x 1e7 (``mission.LOCAL_SCALE``) in 32 bits, INT32_MAX / 1e7
+#: rounded down; beyond, a download wraps (1000 m read 141.0 m).
+LOCAL_MAX_M = 214.7
 
 
 def finite(x):

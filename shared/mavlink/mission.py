@@ -110,6 +110,7 @@ from array import array
 
 from roboray.shared import modes as M
 from roboray.shared.mavlink import messages as msg
+from roboray.shared.mavlink.fields import LOCAL_MAX_M
 
 try:
     from micropython import const
@@ -138,8 +139,6 @@ M_PER_E7 = 0.011131884502145034
 #: A local frame's x and y in MISSION_ITEM_INT: metres x 1e7 (MAVProxy's and
 #: QGroundControl's encoding of every frame).
 LOCAL_SCALE = 1e7
-#: The farthest a local x or y goes (m): INT32_MAX / LOCAL_SCALE, rounded down.
-LOCAL_MAX_M = 214.7
 
 # MISSION_CURRENT.mission_state (MISSION_STATE) and mission_mode
 STATE_NO_MISSION = const(1)

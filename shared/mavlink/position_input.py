@@ -9,7 +9,7 @@ refused is dropped, counted (``Endpoint.fixes_refused``,
 (ArduPilot's way with a bad stream: no flood of texts at 20 Hz).
 
 - ATT_POS_MOCAP: x, y, z (m, NED from the release point) finite, north and
-  east within ``mission.LOCAL_MAX_M`` (where a target can be), z NaN (not
+  east within ``fields.LOCAL_MAX_M`` (where a target can be), z NaN (not
   measured: the twin's fixes and a surface radio's, the depth sensor gives
   depth) or within ``FIX_UP_M`` above the surface and CTL_DEPTH_M's
   maximum below it; the
@@ -26,7 +26,7 @@ an accepted frame unpacks one tuple and boxes its floats.
 import struct
 
 from roboray.shared.mavlink import messages as msg
-from roboray.shared.mavlink.mission import LOCAL_MAX_M
+from roboray.shared.mavlink.fields import LOCAL_MAX_M
 
 #: A fix's z may be this far above the surface (m): the antenna's height
 #: and a fix's noise at the surface (a fix of the vehicle in the air is wrong).
