@@ -262,3 +262,36 @@ def test_the_board_interpreter_refuses_the_same(micropython):
     values = [(m.param_id, m.param_value) for m in msgs if m.get_type() == "PARAM_VALUE"]
     assert values == [("FS_GCS_TIMEOUT", micropython.eval("__ep.params.get(__ep.params.index('FS_GCS_TIMEOUT'))"))]
     assert math.isfinite(values[0][1])
+
+
+def test_demo_vehicle_answers_a_nan_command_and_keeps_serving():
+    """``roboray-ground demo-vehicle`` (``ground/vehicle.py``'s PtyVehicle on
+    the MicroPython interpreter) exited on a COMMAND_LONG with a NaN mode:
+    the endpoint's int(nan) raised out of its loop."""
+    import time
+
+    from pymavlink import mavutil
+
+    from roboray.ground.vehicle import PtyVehicle
+
+    with PtyVehicle() as v:
+        c = mavutil.mavlink_connection(v.device, baud=57600, source_system=255, source_component=190,
+                                       dialect="common")
+        try:
+            assert c.wait_heartbeat(timeout=30) is not None
+            results = []
+            for cmd, p1, p2 in ((pm.MAV_CMD_DO_SET_MODE, 1.0, NAN), (pm.MAV_CMD_REQUEST_MESSAGE, NAN, 0.0),
+                                (pm.MAV_CMD_SET_MESSAGE_INTERVAL, 30.0, INF),
+                                (pm.MAV_CMD_REQUEST_MESSAGE, float(pm.MAVLINK_MSG_ID_HEARTBEAT), 0.0)):
+                c.mav.command_long_send(1, 1, cmd, 0, p1, p2, 0, 0, 0, 0, 0)
+                end = time.monotonic() + 10
+                a = None
+                while a is None and time.monotonic() < end:
+                    m = c.recv_match(type="COMMAND_ACK", blocking=True, timeout=1)
+                    if m is not None and m.command == cmd:
+                        a = m
+                results.append(None if a is None else a.result)
+            assert results == [pm.MAV_RESULT_DENIED] * 3 + [pm.MAV_RESULT_ACCEPTED]
+            assert v.error is None
+        finally:
+            c.close()
