@@ -87,7 +87,7 @@ class VehicleParams:
     # scaled (1: the Kirchhoff equations' own term; 0: the plate-drag model
     # without it, docs/design/glide-check.md). Which one the water obeys is
     # for a dive's log to say (``roboray-sim identify``).
-    munk_scale: float = 1.0  #: -, 0..1
+    munk_scale: float = 1.0  #: -, 0..1 (any finite value: a fit needs room on both sides of 0 and 1)
 
     def problems(self) -> list[str]:
         """What makes these inputs unusable (empty when none): every field a
@@ -120,7 +120,7 @@ class VehicleParams:
 _POSITIVE = frozenset(("rho", "g", "plate_side", "wing_height", "thickness", "plate_density", "wing_density",
                        "dome_radius", "dome_shell_thickness", "dome_density", "total_mass", "payload_radius",
                        "payload_thickness", "servo_tau", "servo_rate"))
-_NON_NEGATIVE = frozenset(("cd", "cf", "servo_mass", "servo_volume", "servo_height", "munk_scale"))
+_NON_NEGATIVE = frozenset(("cd", "cf", "servo_mass", "servo_volume", "servo_height"))
 
 
 def _finite_number(x) -> bool:
