@@ -295,3 +295,41 @@ def test_demo_vehicle_answers_a_nan_command_and_keeps_serving():
             assert v.error is None
         finally:
             c.close()
+
+
+def test_the_class_walk_covers_every_handled_message():
+    """``sim/radio_values.py`` walks the endpoint's own table: a message the
+    endpoint acts on is either given cases for each float and int32 field,
+    or has none of either (checked against pymavlink's definition)."""
+    from roboray.shared.mavlink import commands
+    from roboray.shared.mavlink.endpoint import HANDLERS
+    from roboray.sim import radio_values as R
+
+    for mid in HANDLERS:
+        types = pm.mavlink_map[mid].fieldtypes
+        if mid in R.NO_NUMBERS:
+            assert "float" not in types and "int32_t" not in types, pm.mavlink_map[mid].msgname
+        else:
+            assert mid in R._BUILDERS, pm.mavlink_map[mid].msgname
+    cases = R.cases({"target": (2.0, 0.0, 10.0), "position": (0.0, 0.0)})
+    kinds = {type(c.msg).__name__ for c in cases}
+    for mid in HANDLERS:
+        if mid not in R.NO_NUMBERS:
+            assert any(c.msg.id == mid for c in cases), pm.mavlink_map[mid].msgname
+    assert {c.command for c in cases if c.answer == "COMMAND_ACK"} == set(commands.COMMANDS)
+    assert len(kinds) == 7
+
+
+def test_the_sil_report_names_a_failsafe_without_a_monitor_bit():
+    """"controller failed" puts the vehicle in FAILSAFE without a failsafe
+    monitor bit: the report's ``failsafes`` stayed empty."""
+    from types import SimpleNamespace
+
+    from roboray.sim.twin.runner import Twin
+
+    twin = SimpleNamespace(failsafe_log=[{"name": "leak", "t": 30.0}],
+                           mode_log=[(9.6, "TARGET"), (20.2, "FAILSAFE"), (25.0, "TARGET"), (30.0, "FAILSAFE"),
+                                     (40.0, "FAILSAFE")])
+    texts = [(20.9, 2, "controller failed: FAILSAFE mode"), (30.1, 2, "Failsafe: leak, FAILSAFE mode")]
+    assert Twin._failsafes(twin, texts) == [{"name": "controller failed", "t": 20.2}, {"name": "leak", "t": 30.0},
+                                            {"name": "unexplained", "t": 40.0}]
