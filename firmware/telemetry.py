@@ -4,8 +4,10 @@ The MAVLink endpoint sends the telemetry streams from a
 ``shared/mavlink/telemetry.Telemetry`` at their ``SR_*`` rates; ``Reporter``
 keeps that object current, one stream's part at a time, just before the
 endpoint sends it (``firmware/link.py`` passes ``refresh`` as the
-endpoint's ``on_refresh``): ``fast()`` copies the attitude and rates with
-slice copies between ``array('f')`` buffers (no float boxed);
+endpoint's ``on_refresh``): ``fast()`` copies the attitude and rates
+element by element between ``array('f')`` buffers (a slice assignment
+builds a slice object, a heap block; on RoboRay's MicroPython a float
+copied costs nothing, on stock one boxed float each);
 ``position()`` position and velocity (NED, from the estimator's ``nav``),
 their variances (the estimator's ``cov``: north and east grow while the
 position is dead-reckoned without fixes) and depth; ``sensors()`` pressure, temperature and the IMU in body axes;
@@ -41,10 +43,9 @@ class Reporter:
         telemetry.battery[2] = -1.0
         # the estimator's north, east, v north, v east variances, in
         # Telemetry.var_ned's order (health.COV_NORTH..COV_VE are adjacent)
+        # (a view made once: its items are the estimator's, read in place)
         self._cov_h = memoryview(nav.est.cov)[_h.COV_NORTH:_h.COV_VE + 1]
-        # a view to copy into: CPython's array takes only an array in a slice
-        # assignment, a memoryview takes either on both interpreters
-        self._var_ned = memoryview(telemetry.var_ned)
+        self._var_ned = telemetry.var_ned
 
     def refresh(self, stream):
         """The part of the telemetry stream number ``stream`` sends (the endpoint's ``on_refresh``)."""
@@ -63,14 +64,32 @@ class Reporter:
         """Attitude and rates."""
         t = self.t
         est = self.nav.est
-        t.q[0:4] = est.q
-        t.rates[0:3] = est.rates
+        # element by element: a slice assignment builds a slice object (a
+        # heap block a call); on RoboRay's build a float copied costs none
+        q = t.q
+        e = est.q
+        q[0] = e[0]
+        q[1] = e[1]
+        q[2] = e[2]
+        q[3] = e[3]
+        r = t.rates
+        e = est.rates
+        r[0] = e[0]
+        r[1] = e[1]
+        r[2] = e[2]
 
     def position(self):
         """Position and velocity (NED), their variances, depth."""
         t = self.t
         est = self.nav.est
-        self._var_ned[0:4] = self._cov_h    # one slice copy: no float boxed
+        # element by element (no slice object; the estimator's order, see
+        # __init__)
+        vn = self._var_ned
+        ch = self._cov_h
+        vn[0] = ch[0]
+        vn[1] = ch[1]
+        vn[2] = ch[2]
+        vn[3] = ch[3]
         n = est.nav
         p = t.pos_ned
         p[0] = n[2]
@@ -90,7 +109,10 @@ class Reporter:
         d = nav.depth
         env[1] = d.pressure_pa
         env[2] = d.temp_cc * 0.01
-        t.imu[0:9] = nav.body
+        imu = t.imu
+        b = nav.body
+        for i in range(9):    # no slice object; range() in a for loop allocates nothing
+            imu[i] = b[i]
 
     def servo(self):
         """Wing angles (degrees) and pulses."""
@@ -102,7 +124,12 @@ class Reporter:
         s[1] = c[1] * _RAD_TO_DEG
         s[2] = c[2] * _RAD_TO_DEG
         s[3] = c[3] * _RAD_TO_DEG
-        t.servo_us[0:4] = w.pulse_us
+        su = t.servo_us
+        pu = w.pulse_us
+        su[0] = pu[0]
+        su[1] = pu[1]
+        su[2] = pu[2]
+        su[3] = pu[3]
 
     def power(self):
         """Battery voltage and loop load."""
