@@ -37,8 +37,19 @@
                      vehicle is still or disarmed (phase 1;
                      ``firmware/flightlog/``)
    gc        300 ms  ``collector.collect()``, a planned stall (phase 9: no
-                     control), in a slot with nav only
+                     control), in a slot with nav only; on stock
+                     MicroPython only (below)
    ========  ======  ======================================================
+
+   Which MicroPython it runs on decides the collection (it says which in a
+   STATUSTEXT at start, beside the banner). RoboRay's build keeps floats
+   in the object word (``collector.floats_boxed()``: two equal float
+   results are one object): a flight slot leaves a few bytes, so there is
+   no "gc" task; the log task collects at rest (disarmed, or armed and
+   still on the bottom) in a slot a flash write stalls anyway, and in
+   flight only when the estimated heap runs low (``collector.Collections``),
+   a STATUSTEXT and a log MSG when it does. Stock MicroPython boxes every
+   float result and keeps the "gc" task:
 
    Why the collection is a task: on a Pico 2 one ``gc.collect()`` walks
    the whole live heap, tens of ms (counted on the emulated RP2350;
@@ -166,6 +177,13 @@ def banner():
         return UNKNOWN_BANNER
 
 
+def _impl():
+    """The interpreter, as the start-up STATUSTEXT names it."""
+    import sys
+    i = sys.implementation
+    return "%s %d.%d" % ("MicroPython" if i.name == "micropython" else i.name, i.version[0], i.version[1])
+
+
 def reset_cause_word(machine, cause):
     """``"watchdog"``, ``"power"`` or ``"other"``: what ``Resume`` says."""
     if cause == getattr(machine, "WDT_RESET", -1):
@@ -217,6 +235,11 @@ class Vehicle:
         self.log = None
         self.problems = []
         self.warnings = []
+        #: False on RoboRay's build (floats in the object word); and then
+        #: ``collections``, when it collects (``collector.Collections``).
+        self.floats_boxed = True
+        self.collections = None
+        self.collection_text = ""
 
     def _param(self, name, default):
         i = self.params.index(name)
@@ -349,11 +372,26 @@ class Vehicle:
         # a budget of its longest call: a slot that nav, depth and the radio
         # filled passes it to the next
         s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_COST_US)
-        # the collection, announced as the stall it is, in a slot with nav
-        # only; collector.collect, not a method of the vehicle: the
-        # collector's order (firmware/collector.py) cannot see into a
-        # bound method
-        s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
+        # Which MicroPython this is decides when the loop collects. Stock
+        # (floats boxed: ~3.5 kB of garbage a slot) collects every GC_MS,
+        # announced as the stall it is, in a slot with nav only;
+        # collector.collect, not a method of the vehicle: the collector's
+        # order (firmware/collector.py) cannot see into a bound method.
+        # RoboRay's build (floats in the object word: a flight slot leaves
+        # a few bytes) has no such task: log_step collects at rest, in a
+        # slot a flash write stalls anyway, and in flight only when the heap
+        # is low (collector.Collections), which it reports.
+        self.floats_boxed = collector.floats_boxed()
+        if self.floats_boxed:
+            s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
+            text = "%s: floats boxed, GC every %d ms" % (_impl(), GC_MS)
+        else:
+            gc.collect()
+            self.collections = collector.Collections(gc.mem_free())
+            text = "RoboRay %s: no GC in flight" % _impl()
+        # said once, on the link and in the log, beside the build's banner
+        self.collection_text = text
+        self.link.ep.send_text(6, text)    # MAV_SEVERITY_INFO
         self.sched = s
         self.store.expect_delay = s.expect_delay_ms
         self.resume.record.expect_delay = s.expect_delay_ms
@@ -374,10 +412,26 @@ class Vehicle:
             self.link.ep.send_text(5, "Params: saved once disarmed or at rest")    # MAV_SEVERITY_NOTICE
 
     def log_step(self):
-        """The flight log's task: records to RAM, to flash when harmless."""
+        """The flight log's task: records to RAM, to flash when harmless;
+        on RoboRay's build, the collection when one is due (see
+        ``build_loop``)."""
         m = self.modes
+        log = self.log
+        chunks = log.chunks
         # MODE records carry HEARTBEAT's custom_mode, as ArduPilot's
-        self.log.step(m.armed, modes_mod.CUSTOM[m.mode])
+        log.step(m.armed, modes_mod.CUSTOM[m.mode])
+        c = self.collections
+        if c is not None:
+            slot = self.sched.slot
+            k = c.due(slot, log.resting(), log.chunks != chunks)
+            if k:
+                self.sched.expect_delay_ms(GC_STALL_MS)
+                collector.collect()
+                c.done(slot, k == 2)
+                if k == 2:
+                    # the estimate ran out in flight: a stall the pilot and
+                    # the log hear of (MAV_SEVERITY_WARNING)
+                    self.link.ep.send_text(4, "Heap low: collected in flight")
 
     def control(self):
         """The control task: the flight step, then the dive's state kept

@@ -268,3 +268,63 @@ def _closure():
 def collect():
     """One collection, marked from ``_first`` (see the module docstring)."""
     gc.collect()
+
+
+def floats_boxed():
+    """True where a float result takes a heap block (stock MicroPython,
+    ``MICROPY_OBJ_REPR_A``: 16 bytes each, ~400 a flight slot, so the loop
+    must collect every few hundred ms) or off MicroPython; False on
+    RoboRay's build (``MICROPY_OBJ_REPR_C``: a float is the object word
+    itself, so two equal results are the same object)."""
+    if sys.implementation.name != "micropython":
+        return True
+    a = float("1.5")     # made at run time: not one shared constant
+    return a is not float("1.5")
+
+
+#: On RoboRay's build: the bytes a loop slot is taken to leave at most,
+#: for the heap's estimate (no reading of it in flight: ``gc.mem_free()``
+#: and ``gc.mem_alloc()`` both walk the whole allocation table, ~17.6 ms
+#: on a Pico 2). ``roboray-sim bench board``: the armed slots leave
+#: ``flight_alloc_bytes_per_slot`` on average, ``flight_alloc_bytes_max``
+#: at most (docs/design/board-time.md); this bound is above both.
+SLOT_BYTES = 256
+#: At rest (disarmed, or armed and still on the bottom), a collection at
+#: most this often, and only in a slot a flash write stalls anyway.
+REST_SLOTS = 1000
+
+
+class Collections:
+    """When RoboRay's build collects: never in flight unless the heap is
+    truly low; at rest in a slot already stalled by a flash write.
+
+    ``free``: the heap free after a collection (bytes, read once at start).
+    ``due(slot, resting, flashed)`` says, from the slots since the last
+    collection times ``SLOT_BYTES``, 0 (none), 1 (at rest: once half the
+    free heap may be used, or in a flash write's slot ``REST_SLOTS`` after
+    the last) or 2 (in flight, three quarters may be used: the heap is
+    low, a reported event). Integers only: a call allocates nothing."""
+
+    def __init__(self, free, slot=0):
+        self.free = free
+        self.last = slot
+        self.count = 0
+        #: Collections made in flight because the heap was low.
+        self.low = 0
+
+    def due(self, slot, resting, flashed):
+        n = slot - self.last
+        used = n * SLOT_BYTES
+        if resting:
+            if used >= self.free >> 1 or (flashed and n >= REST_SLOTS):
+                return 1
+            return 0
+        if used >= self.free - (self.free >> 2):
+            return 2
+        return 0
+
+    def done(self, slot, low):
+        self.last = slot
+        self.count += 1
+        if low:
+            self.low += 1
