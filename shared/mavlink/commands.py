@@ -35,7 +35,7 @@ import struct
 
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink import mode_protocol
-from roboray.shared.mavlink.fields import finite, whole
+from roboray.shared.mavlink.fields import whole
 from roboray.shared.mavlink.position_input import set_target
 from roboray.shared.mavlink.streams import stream_of
 
@@ -43,6 +43,7 @@ _FORCE_MAGIC = 21196       # MAV_CMD_COMPONENT_ARM_DISARM param2: force
 _INT32_MAX = 0x7FFFFFFF
 _MSGID_MAX = 0xFFFFFF      # message ids are 24 bits
 _SEQ_MAX = 0xFFFF
+_INTERVAL_MAX_US = 1e9     # SET_MESSAGE_INTERVAL: 1000 s at most (the streams' longest period)
 _NAN = float("nan")
 _REASON_REBOOT_ARMED = "reboot refused: disarm first"
 _REASON_BAD_FRAME = "DO_REPOSITION needs MAV_FRAME_LOCAL_NED (no global position)"
@@ -121,13 +122,14 @@ def reboot(ep, p, cmd, pl):
 
 
 def message_interval(ep, p, cmd, pl):
-    """param1 the message id, param2 the interval (us; -1 off, 0 the default 4 Hz)."""
+    """param1 the message id, param2 the interval (us; -1 off, 0 the default 4 Hz,
+    at most 1e9: 1000 s)."""
     mid, interval_us = struct.unpack_from("<2f", pl, 0)
     k = stream_of(whole(mid, _MSGID_MAX))
     if k < 0:
         ep._ack(p, cmd, msg.MAV_RESULT_DENIED, 0)
         return
-    if not finite(interval_us) or interval_us < -1.0:
+    if not -1.0 <= interval_us <= _INTERVAL_MAX_US:     # (NaN fails)
         _bad_param(ep, p, cmd, 2, interval_us)
         return
     rate = 0.0 if interval_us < 0 else (1e6 / interval_us if interval_us > 0 else 4.0)

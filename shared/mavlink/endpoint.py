@@ -110,6 +110,7 @@ _FRAMES_PER_UPDATE = const(1)     # frames handled or built per update (see Endp
 _CREDIT_MAX = const(512000)       # line credit (milli-bytes): at most this much sent at once
 _ANSWERS = const(16)              # PARAM_VALUE answers waiting for their turn, at most
 _HEARTBEAT_MS = const(1000)
+_PERIOD_MAX_MS = const(1000000)   # a stream's period at most (1000 s: 0.001 Hz)
 
 # The frames the streams are made of, one bit each, in the order they go out
 # when several wait (the lowest bit first).
@@ -471,7 +472,10 @@ class Endpoint:
         self._params_version = self.params.version
         for k in range(_N_STREAMS):
             rate = self.params.get(self._p_rates[k])
-            self._period_ms[k] = int(1000.0 / rate) if rate > 0.0 else 0
+            period = 1000.0 / rate if rate > 0.0 else 0.0
+            # a rate of 1e-24 Hz (a PARAM_SET, an interval of 1e30 us) is a
+            # period array('l') cannot hold: OverflowError ended the link task
+            self._period_ms[k] = int(period) if period < _PERIOD_MAX_MS else _PERIOD_MAX_MS
         self._wake = self.now_ms
 
     def _send(self, msgid):
