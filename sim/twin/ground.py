@@ -50,6 +50,9 @@ GCS_COMPID = 190        # MAV_COMP_ID_MISSIONPLANNER
 VEHICLE_SYSID = 1
 VEHICLE_COMPID = 1
 RETRY_S = 1.0
+#: A board whose first HEARTBEAT comes within this (s) is up at once (the
+#: host's interpreters: 0.02 s); ``Action.from_boot`` shifts by the rest.
+BOOT_S = 0.1
 TRIES = 5
 #: The signing clock (10 us units since 2015-01-01) the runner's key record
 #: gives the vehicle: the twin's epoch (virtual time 0).
@@ -69,6 +72,11 @@ class Action:
     after: Optional[str] = None    #: label of an action that must have succeeded first
     label: Optional[str] = None
     max_tries: int = TRIES
+    #: ``t`` is later by as much as the vehicle's first HEARTBEAT came
+    #: after ``BOOT_S`` (the operator sees it come up late): a board booting
+    #: at a Pico 2's speed (0.8 s on the emulated one) has aligned its
+    #: estimator that much later
+    from_boot: bool = False
     tries: int = 0
     sent_at: Optional[float] = None
     done: bool = False
@@ -128,11 +136,14 @@ class Ground:
         self.tlog = tlog
         self.heartbeats = heartbeats
         self.seen = Seen()
+        #: chunked STATUSTEXTs being put together: id -> texts so far
+        self._chunks: dict[int, list[str]] = {}
         self.t = 0.0
         self._next_hb = 0.0
         self.armed = False
         self.mode = -1
         self.armed_at: Optional[float] = None
+        self._boot_t: Optional[float] = None   # the vehicle's first HEARTBEAT
         self.fixes_sent = 0
         self.key = key
         if key is not None:
@@ -191,12 +202,25 @@ class Ground:
         if kind == "HEARTBEAT":
             armed = bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             s.heartbeats.append((t, m.custom_mode, armed))
+            if self._boot_t is None:
+                self._boot_t = t
             if armed and not self.armed:
                 self.armed_at = t
             self.armed = armed
             self.mode = m.custom_mode
         elif kind == "STATUSTEXT":
-            s.texts.append((t, m.severity, m.text))
+            # a text over 50 bytes comes in chunks with one id (MAVLink 2),
+            # the last shorter than 50 (empty after an exact multiple): the
+            # operator reads it whole, as MAVProxy and QGroundControl show it
+            tid = getattr(m, "id", 0)
+            if not tid:
+                s.texts.append((t, m.severity, m.text))
+            else:
+                parts = self._chunks.setdefault(tid, [])
+                parts.append(m.text)
+                if len(m.text.encode("utf-8", "replace")) < 50:
+                    del self._chunks[tid]
+                    s.texts.append((t, m.severity, "".join(parts)))
         elif kind == "SYS_STATUS":
             s.sys_status.append((t, m.errors_count1, m.onboard_control_sensors_health,
                                  m.onboard_control_sensors_present))
@@ -246,6 +270,8 @@ class Ground:
             if a.sent_at is not None and t - a.sent_at < RETRY_S:
                 continue
             if a.tries >= a.max_tries:
+                continue
+            if a.from_boot and (self._boot_t is None or t < a.t + max(0.0, self._boot_t - BOOT_S)):
                 continue
             a.tries += 1
             a.sent_at = t
