@@ -428,6 +428,11 @@ class Vehicle:
                 self.sched.expect_delay_ms(GC_STALL_MS)
                 collector.collect()
                 c.done(slot, k == 2)
+                if k == 1:
+                    # at rest, the stall already long: the heap as it now
+                    # is (a walk of it, ~17.6 ms on a Pico 2), the next
+                    # estimate's start
+                    c.free = gc.mem_free()
                 if k == 2:
                     # the estimate ran out in flight: a stall the pilot and
                     # the log hear of (MAV_SEVERITY_WARNING)

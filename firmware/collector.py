@@ -282,13 +282,15 @@ def floats_boxed():
     return a is not float("1.5")
 
 
-#: On RoboRay's build: the bytes a loop slot is taken to leave at most,
+#: On RoboRay's build: the bytes a loop slot is taken to leave on average,
 #: for the heap's estimate (no reading of it in flight: ``gc.mem_free()``
 #: and ``gc.mem_alloc()`` both walk the whole allocation table, ~17.6 ms
 #: on a Pico 2). ``roboray-sim bench board``: the armed slots leave
-#: ``flight_alloc_bytes_per_slot`` on average, ``flight_alloc_bytes_max``
-#: at most (docs/design/board-time.md); this bound is above both.
-SLOT_BYTES = 256
+#: ``flight_alloc_bytes_per_slot`` on average (docs/design/board-time.md),
+#: under this; a single slot may leave more (a log record, a STATUSTEXT).
+#: With ~290 kB free on a Pico 2, three quarters last ~68 s of flight: a
+#: collection then is the heap running low after all, and it is reported.
+SLOT_BYTES = 32
 #: At rest (disarmed, or armed and still on the bottom), a collection at
 #: most this often, and only in a slot a flash write stalls anyway.
 REST_SLOTS = 1000
