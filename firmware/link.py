@@ -60,6 +60,7 @@ from roboray.firmware.landing import Touchdown
 from roboray.shared.estimator import health as eh
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.endpoint import Endpoint, ticks_diff
+from roboray.shared.mavlink.position_input import velocity_ok
 from roboray.shared.mavlink.signing import Signing
 
 try:
@@ -200,7 +201,7 @@ class VehicleEndpoint(Endpoint):
         pl = p.payload
         if (pl[48] & _VELOCITY_BITS) == 0 and pl[52] == msg.MAV_FRAME_LOCAL_NED and self._for_us(pl[50], pl[51]):
             vx, vy, vz = struct.unpack_from("<3f", pl, 16)
-            if vx - vx == 0 and vy - vy == 0 and vz - vz == 0:   # finite
+            if velocity_ok(self, vx, vy, vz):   # finite and flyable
                 v = self.velocity_ned
                 v[0] = vx
                 v[1] = vy

@@ -180,6 +180,14 @@ def _streams(base: dict) -> list:
             out.append(Case("SET_POSITION_TARGET_LOCAL_NED %s=%r" % (f, v),
                             pm.MAVLink_set_position_target_local_ned_message(0, SYS, COMP, pm.MAV_FRAME_LOCAL_NED,
                                                                              0xFF8, *vals), None))
+    for i, f in enumerate(("vx", "vy", "vz")):      # a velocity setpoint (velocity bits only)
+        for v in BAD_FLOATS:
+            vel = [0.0, 0.0, 0.0]
+            vel[i] = v
+            out.append(Case("SET_POSITION_TARGET_LOCAL_NED velocity %s=%r" % (f, v),
+                            pm.MAVLink_set_position_target_local_ned_message(0, SYS, COMP, pm.MAV_FRAME_LOCAL_NED,
+                                                                             0x0DC7, 0.0, 0.0, 0.0, *vel,
+                                                                             0.0, 0.0, 0.0, 0.0, 0.0), None))
     for f in ("q0", "q1", "q2", "q3", "x", "y", "z"):
         for v in BAD_FLOATS:
             q = [1.0, 0.0, 0.0, 0.0]

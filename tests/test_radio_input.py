@@ -383,3 +383,42 @@ def test_every_case_of_the_class_walk_on_the_cpython_endpoint():
     assert not wrong, "\n".join(map(repr, wrong))
     assert list(v.tel.target_ned) == [2.0, 0.0, 10.0]
     assert v.modes.mode == M.TARGET and v.modes.armed
+
+
+def test_a_velocity_setpoint_beyond_the_vehicle_is_refused():
+    """The firmware's VehicleEndpoint took any finite velocity: 1e30 m/s
+    squared is inf in float32, and the controller's inf - inf a NaN."""
+    from test_mavlink_endpoint import Ground, exchange
+
+    from roboray.firmware.link import VehicleEndpoint
+    from roboray.shared import param_defs
+    from roboray.shared.mavlink.position_input import VELOCITY_MAX
+    from roboray.shared.mavlink.telemetry import Telemetry
+    from roboray.shared.params import ParamTable
+
+    class V:
+        def __init__(self, g):
+            self.ep = VehicleEndpoint(g.pipe, ParamTable(param_defs.PARAMS), M.Modes(None), Telemetry())
+            self.now = 0
+
+        def step(self, ms=10, n=1):
+            for _ in range(n):
+                self.now += ms
+                self.ep.update(self.now)
+
+    g = Ground()
+    v = V(g)
+    g.mav.set_position_target_local_ned_send(0, 1, 1, pm.MAV_FRAME_LOCAL_NED, 0x0DC7, 0, 0, 0, 0.2, -0.1, 0.3,
+                                             0, 0, 0, 0, 0)
+    exchange(g, v)
+    assert list(v.ep.velocity_ned) == pytest.approx([0.2, -0.1, 0.3]) and v.ep.velocity_count == 1
+    for bad in BAD + (VELOCITY_MAX * 1.01,):
+        for i in range(3):
+            vel = [0.0, 0.0, 0.0]
+            vel[i] = bad
+            g.mav.set_position_target_local_ned_send(0, 1, 1, pm.MAV_FRAME_LOCAL_NED, 0x0DC7, 0, 0, 0, *vel,
+                                                     0, 0, 0, 0, 0)
+    texts = [m for m in exchange(g, v, 100) if m.get_type() == "STATUSTEXT"]
+    assert v.ep.velocity_count == 1 and list(v.ep.velocity_ned) == pytest.approx([0.2, -0.1, 0.3])
+    assert v.ep.targets_refused == 3 * (len(BAD) + 1) and len({t.id for t in texts}) == 1
+    assert texts[0].text.startswith("velocity setpoint refused")

@@ -86,6 +86,27 @@ def handle_set_position_target(ep, p):
             ep.send_text(msg.MAV_SEVERITY_WARNING, "SET_POSITION_TARGET refused: " + ep.mission._why)
 
 
+#: A velocity setpoint's components at most (m/s): ten times the vehicle's
+#: fastest glide (~1 m/s). Beyond, the controller's squares leave float32
+#: (1e30 squared is inf, inf - inf NaN) and the controller fails.
+VELOCITY_MAX = 10.0
+
+
+def velocity_ok(ep, vx, vy, vz):
+    """Whether a velocity setpoint (SET_POSITION_TARGET_LOCAL_NED's velocity
+    bits, ``firmware/link.py``'s VehicleEndpoint) can be flown: each
+    component finite and within ``VELOCITY_MAX``. Refused: counted in
+    ``ep.targets_refused`` and told as a target is."""
+    if -VELOCITY_MAX <= vx <= VELOCITY_MAX and -VELOCITY_MAX <= vy <= VELOCITY_MAX \
+            and -VELOCITY_MAX <= vz <= VELOCITY_MAX:    # (NaN fails)
+        return True
+    ep.targets_refused += 1
+    if _may_tell(ep):
+        ep.send_text(msg.MAV_SEVERITY_WARNING, "velocity setpoint refused: %s %s %s m/s (at most %.0f)"
+                     % (vx, vy, vz, VELOCITY_MAX))
+    return False
+
+
 def set_target(ep, n, e, d):
     """The target ``n``, ``e``, ``d`` when ``Mission.check_target`` takes it:
     MAV_MISSION_ACCEPTED, else the INVALID_PARAMn naming the field at fault
