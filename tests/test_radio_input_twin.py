@@ -8,7 +8,7 @@ does not read, the valid message's answer), and the dive is the dive
 without them: the target kept, the position estimate finite, no FAILSAFE,
 the link answering to the end, the landing on the target.
 
-One dive, the default interpreter; ~820 messages."""
+One dive on the default interpreter; 834 messages (729 answered)."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import math
 import threading
 import time
 
+import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as pm
 
@@ -65,6 +66,7 @@ def _operate(device: str, got: dict, done: threading.Event) -> None:
         c.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)
         fs = _until(c, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == "FS_GCS_TIMEOUT", 5, seen)
         got["t_start"] = time.monotonic()
+        del targets[:]      # (from here on: the target the cases must leave alone)
         results: list = []
         base_result: dict = {}
         got["results"] = results
@@ -137,8 +139,10 @@ def test_every_handled_message_with_no_number_in_each_field_in_flight():
     def on_radio(radio):
         threading.Thread(target=_operate, args=(radio.device, got, done), daemon=True).start()
 
-    # a 30 m bottom: a dive long enough for every case at the radio's pace
-    twin = Twin(Options(scenario="target-landing", radio="pty", speedup=1.0, depth=30.0, duration=300.0),
+    # a 30 m bottom: a dive long enough for every case at the radio's pace (FS_DEPTH_MAX,
+    # 20 m by default, beyond it: its warning is not what is tested)
+    twin = Twin(Options(scenario="target-landing", radio="pty", speedup=1.0, depth=30.0, duration=300.0,
+                        params={"FS_DEPTH_MAX": 40.0}),
                 on_radio=on_radio)
     report = twin.run()
     assert done.wait(60)
@@ -163,8 +167,13 @@ def test_every_handled_message_with_no_number_in_each_field_in_flight():
     assert len(got["results"]) == sum(1 for c in R.cases({"target": (0, 0, 0), "position": (0, 0)}) if c.answer)
     # all of it in flight: still flying to the target after the last (MISSION_STATE ACTIVE)
     assert got["in_flight_after"] == 3
-    assert got["target_after"] == got["target"]
-    assert all(t == got["target"] for t in got["targets"])
+    # (the valid COMMAND_INT DO_REPOSITION sets it again from metres x 1e4: 2.0 as 1.99999988 in float32)
+    assert got["target_after"] == pytest.approx(got["target"], abs=1e-5)
+    # the target's place never moves; its bottom is the base's, or 0 (CTL_DEPTH_M's) after the
+    # mission item with a NaN z: "no depth given", a valid item, accepted (and the next restores it)
+    n, e, d = got["target"]
+    odd = [t for t in got["targets"] if t != pytest.approx((n, e, d), abs=1e-5) and t != pytest.approx((n, e, 0.0), abs=1e-5)]
+    assert got["targets"] and not odd, odd[:5]
     assert got["positions"] and all(math.isfinite(v) for p in got["positions"] for v in p)
     assert "FAILSAFE" not in [m for _, m in report["modes"]] and report["failsafes"] == []
     assert got["reached"] == 1 and report["landed"]
