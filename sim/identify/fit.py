@@ -1,4 +1,4 @@
-"""The fit: the vehicle's parameters and the segments' velocities by least
+"""The fit: the vehicle's parameters and the segments' nodes by least
 squares, the parameters' covariance from the Jacobian, and which of them
 the data cannot see.
 

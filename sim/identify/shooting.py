@@ -2,18 +2,19 @@
 of the log, many vehicles and segments in one batch.
 
 A dive is cut into segments of ``SEGMENT_S``. Each segment starts from the
-log's state at its start (depth, attitude, body rates, the wings through
-the servo model) and its body velocity: zero for the segment that starts
-at the release (the vehicle was held still), a free unknown for the others
-(started from the estimator's EST velocity). Over the segment the logged
-wing commands drive the model (``sim/dynamics.py``, RK4 at ``DT`` through
-the compiled batch ``kernels.advance``, commands interpolated between WING
-records and held for ``CHUNK_S``), and the outputs are compared with what
-was logged. Short segments keep an error in the model from carrying the
-simulated vehicle away from the logged one (heading and track drift without
-bound, the attitude does not), which a single shooting over the whole dive
-would suffer; the free velocity of each segment is the multiple shooting's
-state at the node, estimated with the parameters.
+log's state at its start (depth, attitude, the wings through the servo
+model) and a node: body velocity, body rates and a tilt of the logged
+attitude (``NODE``), zero for the segment that starts at the release (the
+vehicle was held still; only its tilt may differ), unknowns for the others
+(started from the estimator's EST velocity and the gyro), tied to the end
+of the segment before by continuity defects (``fit``). Over the segment
+the logged wing commands drive the model (``sim/dynamics.py``, RK4 at
+``DT`` through the compiled batch ``kernels.advance``, commands
+interpolated between WING records and held for ``CHUNK_S``), and the
+outputs are compared with what was logged. Short segments keep an error in
+the model from carrying the simulated vehicle away from the logged one
+(heading and track drift without bound, the attitude does not), which a
+single shooting over the whole dive would suffer.
 
 The residuals, each divided by its sigma (``Residuals.sigma``):
 
