@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import math
 
 import numpy as np
 
@@ -115,7 +114,3 @@ def plot(path: str, result: Result) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-def finite(x) -> bool:
-    return x is not None and math.isfinite(x)
