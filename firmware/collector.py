@@ -285,12 +285,15 @@ def floats_boxed():
 #: On RoboRay's build: the bytes a loop slot is taken to leave on average,
 #: for the heap's estimate (no reading of it in flight: ``gc.mem_free()``
 #: and ``gc.mem_alloc()`` both walk the whole allocation table, ~17.6 ms
-#: on a Pico 2). ``roboray-sim bench board``: the armed slots leave
-#: ``flight_alloc_bytes_per_slot`` on average (docs/design/board-time.md),
-#: under this; a single slot may leave more (a log record, a STATUSTEXT).
-#: With ~290 kB free on a Pico 2, three quarters last ~68 s of flight: a
-#: collection then is the heap running low after all, and it is reported.
-SLOT_BYTES = 32
+#: on a Pico 2). Measured: 169 B an armed slot in a passive drop on the
+#: emulated RP2350 (the log's records and flushes, the radio's frames;
+#: docs/design/board-time.md), and the twin's emulated peripherals share
+#: that heap. At 32 B the heap filled first on the emulated board and the
+#: allocator collected inside tasks, unannounced (19 overruns in a 12 s
+#: passive drop); at 256 B the estimate runs low first, every ~8 s of
+#: flight with ~290 kB free, and each collection is announced and
+#: reported. Lower it as the flight path's garbage goes.
+SLOT_BYTES = 256
 #: At rest (disarmed, or armed and still on the bottom), a collection at
 #: most this often, and only in a slot a flash write stalls anyway.
 REST_SLOTS = 1000
