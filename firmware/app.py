@@ -37,19 +37,14 @@
                      vehicle is still or disarmed (phase 1;
                      ``firmware/flightlog/``)
    gc        300 ms  ``collector.collect()``, a planned stall (phase 9: no
-                     control), in a slot with nav only; on stock
-                     MicroPython only (below)
+                     control), in a slot with nav only
    ========  ======  ======================================================
 
-   Which MicroPython it runs on decides the collection (it says which in a
-   STATUSTEXT at start, beside the banner). RoboRay's build keeps floats
-   in the object word (``collector.floats_boxed()``: two equal float
-   results are one object): a flight slot leaves a few bytes, so there is
-   no "gc" task; the log task collects at rest (disarmed, or armed and
-   still on the bottom) in a slot a flash write stalls anyway, and in
-   flight only when the estimated heap runs low (``collector.Collections``),
-   a STATUSTEXT and a log MSG when it does. Stock MicroPython boxes every
-   float result and keeps the "gc" task:
+   It says at start, in a STATUSTEXT beside the banner, which MicroPython
+   it runs on (``collector.floats_boxed()``: stock boxes every float,
+   RoboRay's build keeps it in the object word) and that it collects
+   every 300 ms on both (RoboRay's build still leaves ~169 B an armed
+   slot: ``docs/design/board-time.md``).
 
    Why the collection is a task: on a Pico 2 one ``gc.collect()`` walks
    the whole live heap, tens of ms (counted on the emulated RP2350;
@@ -235,10 +230,8 @@ class Vehicle:
         self.log = None
         self.problems = []
         self.warnings = []
-        #: False on RoboRay's build (floats in the object word); and then
-        #: ``collections``, when it collects (``collector.Collections``).
+        #: False on RoboRay's build (floats in the object word).
         self.floats_boxed = True
-        self.collections = None
         self.collection_text = ""
 
     def _param(self, name, default):
@@ -372,23 +365,20 @@ class Vehicle:
         # a budget of its longest call: a slot that nav, depth and the radio
         # filled passes it to the next
         s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_COST_US)
-        # Which MicroPython this is decides when the loop collects. Stock
-        # (floats boxed: ~3.5 kB of garbage a slot) collects every GC_MS,
-        # announced as the stall it is, in a slot with nav only;
-        # collector.collect, not a method of the vehicle: the collector's
-        # order (firmware/collector.py) cannot see into a bound method.
-        # RoboRay's build (floats in the object word: a flight slot leaves
-        # a few bytes) has no such task: log_step collects at rest, in a
-        # slot a flash write stalls anyway, and in flight only when the heap
-        # is low (collector.Collections), which it reports.
+        # the collection, announced as the stall it is, in a slot with nav
+        # only; collector.collect, not a method of the vehicle: the
+        # collector's order (firmware/collector.py) cannot see into a
+        # bound method. On both builds for now: RoboRay's (floats in the
+        # object word) still leaves ~169 B an armed slot (the log, the
+        # radio), and collecting only when a heap estimate ran low left
+        # the allocator to collect inside tasks on the emulated RP2350
+        # (11-19 overruns in a 12 s passive drop; docs/design/board-time.md)
+        s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
         self.floats_boxed = collector.floats_boxed()
         if self.floats_boxed:
-            s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
             text = "%s: floats boxed, GC every %d ms" % (_impl(), GC_MS)
         else:
-            gc.collect()
-            self.collections = collector.Collections(gc.mem_free())
-            text = "RoboRay %s: no GC in flight" % _impl()
+            text = "RoboRay %s: GC every %d ms" % (_impl(), GC_MS)
         # said once, on the link and in the log, beside the build's banner
         self.collection_text = text
         self.link.ep.send_text(6, text)    # MAV_SEVERITY_INFO
@@ -412,31 +402,10 @@ class Vehicle:
             self.link.ep.send_text(5, "Params: saved once disarmed or at rest")    # MAV_SEVERITY_NOTICE
 
     def log_step(self):
-        """The flight log's task: records to RAM, to flash when harmless;
-        on RoboRay's build, the collection when one is due (see
-        ``build_loop``)."""
+        """The flight log's task: records to RAM, to flash when harmless."""
         m = self.modes
-        log = self.log
-        chunks = log.chunks
         # MODE records carry HEARTBEAT's custom_mode, as ArduPilot's
-        log.step(m.armed, modes_mod.CUSTOM[m.mode])
-        c = self.collections
-        if c is not None:
-            slot = self.sched.slot
-            k = c.due(slot, log.resting(), log.chunks != chunks)
-            if k:
-                self.sched.expect_delay_ms(GC_STALL_MS)
-                collector.collect()
-                c.done(slot, k == 2)
-                if k == 1:
-                    # at rest, the stall already long: the heap as it now
-                    # is (a walk of it, ~17.6 ms on a Pico 2), the next
-                    # estimate's start
-                    c.free = gc.mem_free()
-                if k == 2:
-                    # the estimate ran out in flight: a stall the pilot and
-                    # the log hear of (MAV_SEVERITY_WARNING)
-                    self.link.ep.send_text(4, "Heap low: collected in flight")
+        self.log.step(m.armed, modes_mod.CUSTOM[m.mode])
 
     def control(self):
         """The control task: the flight step, then the dive's state kept

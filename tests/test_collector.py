@@ -65,16 +65,15 @@ def test_off_micropython_there_is_nothing_to_order():
     assert collector.prepare() == 0 and collector._first is None
 
 
-# ---------------------------------------------------------------- the policy
-# Which MicroPython the firmware runs on decides when the loop collects
-# (firmware/app.py build_loop, collector.Collections).
+# ---------------------------------------------------------------- the build
+# Which MicroPython the firmware runs on, said once at start
+# (firmware/app.py build_loop).
 
 def test_stock_micropython_boxes_floats_and_keeps_the_planned_collection(mp):
     # the WebAssembly port is stock MicroPython (MICROPY_OBJ_REPR_A)
     mp.exec("from roboray.firmware import collector")
     assert mp.eval("collector.floats_boxed()") is True
     assert mp.eval("v.floats_boxed") is True
-    assert mp.eval("v.collections is None") is True
     assert mp.eval("'gc' in v.sched.names") is True
     text = mp.eval("v.collection_text")
     assert text.startswith("MicroPython ") and text.endswith("floats boxed, GC every 300 ms")
@@ -101,43 +100,13 @@ def _roboray(code):
     return proc.stdout.strip().splitlines()
 
 
-def test_roboray_build_has_no_collection_task_and_says_so():
+def test_roboray_build_is_told_apart_and_says_so():
     from roboray.tools.micropython import roboray_host
     if not roboray_host.available():
         pytest.skip("RoboRay MicroPython's host build runs on Linux on x86")
     out = _roboray("from roboray.firmware import collector\n"
                    "print(collector.floats_boxed(), v.floats_boxed, 'gc' in v.sched.names)\n"
-                   "print(v.collection_text)\n"
-                   "print(v.collections.free)\n")
-    assert out[-3] == "False False False"
-    assert out[-2].startswith("RoboRay MicroPython 1.") and out[-2].endswith(": no GC in flight")
-    assert len(out[-2]) <= 50
-    # the heap free after the start-up collection: most of the Pico 2's
-    assert int(out[-1]) > 100000
-
-
-def test_the_policy_never_collects_in_flight_until_the_heap_is_low():
-    from roboray.firmware import collector
-    free = 4 * collector.REST_SLOTS * collector.SLOT_BYTES    # half of it lasts past REST_SLOTS
-    c = collector.Collections(free, slot=100)
-    low = 100 + (free - free // 4) // collector.SLOT_BYTES      # the first slot the estimate is low
-    # flying (not resting): nothing, flash slot or not, up to the low mark
-    for slot in (101, 100 + collector.REST_SLOTS, low - 1):
-        assert c.due(slot, False, False) == 0 and c.due(slot, False, True) == 0
-    assert c.due(low + 1, False, False) == 2
-    c.done(low + 1, True)
-    assert (c.count, c.low, c.last) == (1, 1, low + 1)
-    # at rest: in a flash write's slot once REST_SLOTS have passed, else
-    # once half the free heap may be used
-    s = c.last
-    assert c.due(s + collector.REST_SLOTS - 1, True, True) == 0
-    assert c.due(s + collector.REST_SLOTS, True, False) == 0
-    assert c.due(s + collector.REST_SLOTS, True, True) == 1
-    half = s + (free // 2) // collector.SLOT_BYTES + 1
-    assert c.due(half, True, False) == 1
-
-
-def test_the_policy_check_allocates_nothing_on_micropython(mp):
-    mp.exec("from roboray.firmware import collector\n"
-            "_c = collector.Collections(300000, 0)\n")
-    assert mp.alloc_bytes("_c.due(50, False, False); _c.due(2000, True, True)") == 0
+                   "print(v.collection_text)\n")
+    assert out[-2] == "False False True"
+    assert out[-1].startswith("RoboRay MicroPython 1.") and out[-1].endswith(": GC every 300 ms")
+    assert len(out[-1]) <= 50

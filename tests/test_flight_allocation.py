@@ -34,7 +34,6 @@ ZERO = (
     "v.nav.est.check(vclock.ticks_us())",
     "v.flight.step()",
     "v.failsafes.update()",
-    "v.collections.due(v.sched.slot, False, False)",
 )
 
 
