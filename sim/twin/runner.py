@@ -420,21 +420,29 @@ class MicroPythonUnixBoard(CPythonBoard):
 
         return unix_port.interpreter_build()
 
-    def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
-        from roboray.sim import twin
-        from roboray.tools.micropython import unix_port
+    #: the firmware's ``gc`` is ``board/lazygc.py`` (True) or the real one
+    LAZY_GC = True
 
-        code = ("import sys, json\n"
+    def _boot_code(self, fd_in: int, fd_out: int, config: dict) -> str:
+        """The program the child runs: ``hostlink`` over the two pipes, then
+        the board's main loop."""
+        from roboray.sim import twin
+
+        lazy = ("from roboray.sim.twin.board import lazygc\n"
+                "sys.modules['gc'] = lazygc\n") if self.LAZY_GC else ""
+        return ("import sys, json\n"
                 "from roboray.sim.twin.board import pipelink\n"
                 "pipelink.connect(%d, %d)\n"
                 "sys.modules['hostlink'] = pipelink\n"
-                "from roboray.sim.twin.board import lazygc\n"
-                "sys.modules['gc'] = lazygc\n"
-                "%s"
+                "%s%s"
                 "from roboray.sim.twin.board import lockstep\n"
-                "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
+                "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, lazy, twin.PRELUDE, json.dumps(config)))
+
+    def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
+        from roboray.tools.micropython import unix_port
+
         env = dict(os.environ, MICROPYPATH=str(self.lib))
-        return unix_port.command("-X", "heapsize=" + self.HEAP, "-c", code), env
+        return unix_port.command("-X", "heapsize=" + self.HEAP, "-c", self._boot_code(fd_in, fd_out, config)), env
 
     @staticmethod
     def _answer(text: str) -> bytes:
@@ -468,20 +476,14 @@ class RoboRayUnixBoard(MicroPythonUnixBoard):
 
         return roboray_host.interpreter_build()
 
+    LAZY_GC = False
+
     def _command(self, fd_in: int, fd_out: int, config: dict) -> tuple[list[str], Optional[dict]]:
-        from roboray.sim import twin
         from roboray.tools.micropython import rp2350_emu, roboray_host
 
-        code = ("import sys, json\n"
-                "from roboray.sim.twin.board import pipelink\n"
-                "pipelink.connect(%d, %d)\n"
-                "sys.modules['hostlink'] = pipelink\n"
-                "%s"
-                "from roboray.sim.twin.board import lockstep\n"
-                "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
         env = dict(os.environ, MICROPYPATH=str(self.lib))
         heap = rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP
-        return roboray_host.command("-X", "heapsize=%d" % heap, "-c", code), env
+        return roboray_host.command("-X", "heapsize=%d" % heap, "-c", self._boot_code(fd_in, fd_out, config)), env
 
 
 class RP2350EmuBoard(MicroPythonUnixBoard):
