@@ -58,13 +58,18 @@ def test_pyright_passes_against_the_micropython_stubs():
 
 
 def test_every_package_folder_is_installed():
+    # setup.py installs every folder with an __init__.py under the folders
+    # pyproject.toml maps to roboray.*: a folder of modules without one
+    # would be left out of an installed package while the checkout works
     tomllib = pytest.importorskip("tomllib") if sys.version_info >= (3, 11) else pytest.importorskip("tomli")
-    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
-    declared = set(config["packages"])
-    mapping = config["package-dir"]
-    found = set()
-    for package, folder in mapping.items():
-        for init in (ROOT / folder).rglob("__init__.py"):
-            rel = init.parent.relative_to(ROOT / folder)
-            found.add(".".join([package, *rel.parts]) if rel.parts else package)
-    assert found == declared, "add new packages to [tool.setuptools] packages in pyproject.toml"
+    mapping = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+    assert sorted(mapping.values()) == sorted(("shared", "firmware", "sim", "ground", "tools"))
+    assert "TOP = (\"shared\", \"firmware\", \"sim\", \"ground\", \"tools\")" in (ROOT / "setup.py").read_text()
+    missing = []
+    for folder in mapping.values():
+        for d in [ROOT / folder, *(p for p in (ROOT / folder).rglob("*") if p.is_dir())]:
+            if "__pycache__" in d.parts or not any(d.glob("*.py")):
+                continue
+            if not (d / "__init__.py").exists():
+                missing.append(str(d.relative_to(ROOT)))
+    assert missing == [], "folders of modules without an __init__.py are not installed: %s" % missing

@@ -99,7 +99,10 @@ def test_a_sensor_whose_outputs_freeze_mid_descent_is_caught(fault, name, bit):
     # live part's noise never repeats every count twenty samples in a row.
     r = fly("%s@10" % fault)
     assert names(r)[0] == name
-    assert 10.0 <= first(r, name) <= 10.6
+    # twenty frozen samples, SENSOR_CONFIRM_MS, and a planned collection's
+    # stall (the loop reads no sensor during it) that may fall among them
+    from roboray.firmware import app
+    assert 10.0 <= first(r, name) <= 10.6 + app.GC_STALL_MS / 1000
     assert reported(r, getattr(F, bit))
     assert r["landed"] is False or first(r, name) < r["landed_at_s"]
 

@@ -95,4 +95,4 @@ def test_the_slot_figure_costs_the_link_no_heap_and_its_report_one_frame(mp):
     assert sampling == mp.alloc_bytes("v.link.step()")    # reading the slot time allocates nothing
     without = mp.alloc_bytes("ep.slot_max_us = -1; ep._send_stream(5)")
     with_slot = mp.alloc_bytes("ep.slot_max_us = 5000; ep._send_stream(5)")
-    assert with_slot - without == 16                      # the frame's view, as every frame's
+    assert with_slot == without                           # the frame's view is made once per length

@@ -52,7 +52,8 @@ def test_a_target_landing_through_the_whole_stack_on_micropython(tmp_path):
     # target (the mission's item 1, shared/mavlink/mission.py)
     texts = [text for _, _, text in r["statustext"]]
     assert texts[0].startswith("RoboRay firmware ")   # the build, at start-up
-    assert texts[1:] == ["link lost below 5 m, expected", "Reached target: mission item 1"]
+    assert texts[1:] == ["RoboRay MicroPython 1.29: GC every 300 ms",   # the build, once
+                         "link lost below 5 m, expected", "Reached target: mission item 1"]
     assert r["overruns"] == 0 and r["resets"] == 0
     assert [a["result"] for a in r["operator"]] == ["accepted"] * 3
     assert r["fixes_sent"] >= 25 and r["bad_frames_from_vehicle"] == 0
@@ -109,7 +110,9 @@ def test_ten_minutes_resting_on_the_bottom_raise_no_failsafe():
     assert r["landed"] and r["landed_at_s"] < 12.5
     assert r["duration_s"] - r["landed_at_s"] >= 597.0
     assert r["failsafes"] == []
-    assert [t for _, _, t in r["statustext"]] == [r["firmware"]]   # the start-up banner, nothing else
+    # the start-up banner and the build's collection policy, nothing else
+    texts = [t for _, _, t in r["statustext"]]
+    assert len(texts) == 2 and texts[0] == r["firmware"] and texts[1].endswith("GC every 300 ms"), texts
     assert r["failsafe_flags_reported"] == 0
     assert [m for _, m in r["modes"]] == ["PASSIVE"] and [a for _, a in r["arming"]] == ["disarmed", "armed"]
     assert r["overruns"] == 0 and r["resets"] == 0 and r["task_errors"] == 0
