@@ -257,9 +257,23 @@ class Lockstep:
     # ------------------------------------------------------------- lives
     def life_ended(self):
         """Add the counts of the application that just ended."""
+        import gc
+
         from roboray.firmware import app
         v = app.vehicle
         app.vehicle = None
+        try:
+            self._count_life(v)
+        finally:
+            # a reset clears the board's RAM; here the next life runs in the
+            # same heap, so what the last one left must go before it builds
+            # (its log ring wants one large block)
+            v = None
+            if self.bt is not None:
+                self.bt._modes = None
+            gc.collect()
+
+    def _count_life(self, v):
         if v is None or v.sched is None:
             return
         s = v.sched
