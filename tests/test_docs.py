@@ -443,6 +443,22 @@ def test_the_parameter_reference_is_what_the_generator_writes_now():
         assert "| `%s` |" % d[0] in committed, d[0]
 
 
+def test_every_count_of_the_parameters_the_docs_give_is_the_firmwares():
+    # The docs show `param fetch` transcripts; a parameter added since makes them lie (83 stood for 89).
+    from roboray.firmware.app import PARAMS
+
+    said = re.compile(r"(?:\b(\d+) parameters\b|parameters, all (\d+)\b|all (\d+) values\b)")
+    wrong = []
+    for doc in DOCS:
+        for n, line in enumerate(doc.read_text(encoding="utf-8").splitlines(), 1):
+            for m in said.finditer(line):
+                count = int(next(g for g in m.groups() if g))
+                if count != len(PARAMS):
+                    wrong.append("%s:%d says %d, the firmware has %d" % (doc.relative_to(ROOT), n, count, len(PARAMS)))
+    assert not wrong, wrong
+    assert any("%d parameters" % len(PARAMS) in d.read_text(encoding="utf-8") for d in DOCS)
+
+
 def test_the_parameter_reference_is_linked_from_the_readme_and_the_commands():
     for doc in ("README.md", "docs/user/commands.md"):
         targets = [(ROOT / doc).parent.joinpath(t.partition("#")[0]).resolve() for _, t in _links(ROOT / doc)]
