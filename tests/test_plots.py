@@ -268,6 +268,26 @@ def test_fly_figure_labels_clear_of_the_ticks_and_wings_at_one_angle_drawn_once(
         plt.close(fig)
 
 
+def test_fly_figure_in_attitude_mode_shows_the_attitude_and_its_set_points():
+    # attitude mode holds roll and pitch: a velocity panel with zero "set points" showed a goal it had not
+    from roboray.sim import flight as F
+    from roboray.sim.commands.control import flight_figure
+
+    flight = F.fly(F.FlightSpec(mode="attitude", attitude_deg=(5.0, -3.0), truth=True, max_flight_s=5.0))
+    fig = flight_figure(flight)
+    try:
+        ax = fig.axes[2]
+        assert ax.get_ylabel() == "attitude (deg)"
+        lines = {line.get_label(): line.get_ydata() for line in ax.get_lines()}
+        assert set(lines) == {"roll", "pitch", "set point roll", "set point pitch"}
+        assert list(lines["set point roll"]) == [5.0, 5.0] and list(lines["set point pitch"]) == [-3.0, -3.0]
+        lo, hi = ax.get_ylim()
+        assert lo < -3.0 and hi > 5.0                        # both set points in view
+        assert abs(lines["roll"][-1] - 5.0) < 2.0 and abs(lines["pitch"][-1] + 3.0) < 2.0
+    finally:
+        plt.close(fig)
+
+
 def test_sil_mode_rows_come_from_the_names_and_events_never_overlap():
     from roboray.shared.modes import MODES, NAMES
     from roboray.sim.twin.plot import figure

@@ -142,12 +142,23 @@ def flight_figure(flight, title: str | None = None):
     ax.set_ylabel("depth (m)")
     ax.legend(loc="best", fontsize=8)
     ax = fig.add_subplot(grid[1, 1])
-    ax.plot(t, flight.velocity[:, 0], label="v north")
-    ax.plot(t, flight.velocity[:, 1], label="v east")
-    if flight.setpoints.size:
-        ax.plot(t, flight.setpoints[:, 0], "--", lw=0.8, color="C0", label="set point north")
-        ax.plot(t, flight.setpoints[:, 1], "--", lw=0.8, color="C1", label="set point east")
-    ax.set_ylabel("horizontal velocity (m/s)")
+    if spec.mode == "attitude":
+        # attitude mode holds roll and pitch; its velocity set points are unused zeros, not a goal
+        from roboray.sim.dynamics import quat_to_rot
+
+        r = quat_to_rot(flight.quaternion)
+        ax.plot(t, np.degrees(np.arctan2(r[:, 2, 1], r[:, 2, 2])), label="roll")
+        ax.plot(t, np.degrees(-np.arcsin(np.clip(r[:, 2, 0], -1.0, 1.0))), label="pitch")
+        ax.plot(t[[0, -1]], [spec.attitude_deg[0]] * 2, "--", lw=0.8, color="C0", label="set point roll")
+        ax.plot(t[[0, -1]], [spec.attitude_deg[1]] * 2, "--", lw=0.8, color="C1", label="set point pitch")
+        ax.set_ylabel("attitude (deg)")
+    else:
+        ax.plot(t, flight.velocity[:, 0], label="v north")
+        ax.plot(t, flight.velocity[:, 1], label="v east")
+        if flight.setpoints.size:
+            ax.plot(t, flight.setpoints[:, 0], "--", lw=0.8, color="C0", label="set point north")
+            ax.plot(t, flight.setpoints[:, 1], "--", lw=0.8, color="C1", label="set point east")
+        ax.set_ylabel("horizontal velocity (m/s)")
     ax.legend(loc="best", fontsize=8, ncol=2)
     ax = fig.add_subplot(grid[2, 1])
     plot_series(ax, t, np.degrees(flight.wings).T, WINGS, WING_STYLES)   # wings at one angle: one line
