@@ -288,6 +288,36 @@ def test_fly_figure_in_attitude_mode_shows_the_attitude_and_its_set_points():
         plt.close(fig)
 
 
+def test_sil_figure_marks_the_radio_reach_and_where_the_link_went():
+    # the estimate's dots stop where the ground stops hearing LOCAL_POSITION_NED: say so on the figure
+    from roboray.sim.twin.plot import figure
+
+    t = np.linspace(0.0, 35.0, 351)
+    x = np.zeros((len(t), 17))
+    cb = np.zeros((len(t), 3))
+    cb[:, 2] = np.clip((t - 10.0) * 0.45, 0.0, 10.0)
+    positions = [(tt, 0.0, 0.0, d, 0.0, 0.0, 0.0) for tt, d in zip(t, cb[:, 2]) if tt < 22.0]
+    report = {"scenario": "target-landing", "interpreter": "roboray-unix", "seed": 0, "bottom_depth_m": 10.0,
+              "target": [2.0, 0.0], "landing_point": [2.0, 0.0], "landing_error_m": 0.09,
+              "modes": [[0.0, "TARGET"]], "arming": [[0.0, "disarmed"], [9.0, "armed"]], "failsafes": [],
+              "radio_model": "hc12-433", "radio_reach_m": 5.61,
+              "link_events": [{"event": "lost", "t": 21.98, "depth_m": 5.315},
+                              {"event": "regained", "t": 30.5, "depth_m": 5.2}]}
+    fig = figure({"t": t, "x": x, "cb": cb}, positions, report)
+    try:
+        depth = [a for a in fig.axes if a.get_ylabel() == "depth (m)"][0]
+        labels = legend_labels(depth)
+        assert "radio reach 5.6 m (hc12-433)" in labels
+        assert "link lost at 22.0 s, 5.3 m" in labels and "link regained at 30.5 s, 5.2 m" in labels
+        modes = [a for a in fig.axes if a.get_title() == "firmware mode and failsafes"][0]
+        assert "link lost at 21.98 s" in legend_labels(modes)
+        assert sorted(round(ln.get_xdata()[0], 2) for ln in modes.get_lines()
+                      if ln.get_color() == "C4") == [21.98, 30.5]
+        check_style(fig)
+    finally:
+        plt.close(fig)
+
+
 def test_sil_mode_rows_come_from_the_names_and_events_never_overlap():
     from roboray.shared.modes import MODES, NAMES
     from roboray.sim.twin.plot import figure

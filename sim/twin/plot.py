@@ -62,6 +62,14 @@ def figure(truth: dict, positions: list, report: dict):
     if len(est):
         ax.plot(est[:, 0], est[:, 3], ".", ms=2, color="C1", label="estimate")
     ax.axhline(report["bottom_depth_m"], color="k", lw=0.8, ls="--", label="bottom")
+    # the radio through water: where it reaches, and when the ground lost and found it (the
+    # estimate's dots stop there because LOCAL_POSITION_NED no longer arrives, not the vehicle)
+    if report.get("radio_reach_m") is not None:
+        ax.axhline(report["radio_reach_m"], color="C4", lw=0.8, ls=":",
+                   label="radio reach %.1f m (%s)" % (report["radio_reach_m"], report.get("radio_model", "")))
+    for ev in report.get("link_events", []):
+        ax.plot([ev["t"]], [ev["depth_m"]], "v" if ev["event"] == "lost" else "^", ms=7, color="C4",
+                label="link %s at %.1f s, %.1f m" % (ev["event"], ev["t"], ev["depth_m"]))
     ax.invert_yaxis()
     ax.set_xlabel("time (s)")
     ax.set_ylabel("depth (m)")
@@ -89,6 +97,11 @@ def figure(truth: dict, positions: list, report: dict):
         if report.get(key) is not None:
             ax.axvline(report[key], color="k", lw=0.8, ls=style)
             handles.append(Line2D([], [], color="k", lw=0.8, ls=style, label="%s at %.2f s" % (label, report[key])))
+    lost = [ev["t"] for ev in report.get("link_events", []) if ev["event"] == "lost"]
+    for ev in report.get("link_events", []):
+        ax.axvline(ev["t"], color="C4", lw=0.8, ls="--" if ev["event"] == "lost" else "-")
+    if lost:
+        handles.append(Line2D([], [], color="C4", lw=0.8, ls="--", label="link lost at %.2f s" % lost[0]))
     last, close = -float("inf"), 0
     for f in sorted(report.get("failsafes", []), key=lambda f: f["t"]):
         close = close + 1 if f["t"] - last < 0.04 * span else 0
