@@ -428,6 +428,85 @@ def test_every_command_the_docs_name_has_the_options_and_choices_they_name():
     assert not problems, "commands the docs name wrongly:\n" + "\n".join(problems)
 
 
+#: Options commands.md names once for a whole family instead of on each command's line.
+_SAID_ONCE = {
+    "roboray-sim": {"--vehicle", "--water"},                 # "Simulation and analysis commands take ..."
+    "roboray-ground": {"--master", "--baudrate", "--source-system", "--key", "--key-file", "--timeout",
+                       "--json", "--ack-timeout"},                 # "The vehicle commands share ..."
+    "roboray-flash": set(),
+}
+
+
+def missing_from_usage(usages: list[str]) -> list[str]:
+    """The options (and an option's word choices) of the command that
+    ``usages`` (the reference's synopsis lines of one command) leave out."""
+    words = usages[0].replace("[", " ").replace("]", " ").split()
+    script, parser, k = words[0], importlib.import_module(CLIS[words[0]]).build_parser(), 1
+    while k < len(words) and words[k] in _subcommands(parser):
+        parser = _subcommands(parser)[words[k]]
+        k += 1
+    if _subcommands(parser):
+        return []   # a family's line ("roboray-ground log ..."), its commands have their own
+    text = " ".join(usages)
+    missing = []
+    for action in parser._actions:
+        if not action.option_strings or isinstance(action, argparse._HelpAction):
+            continue
+        if not any(re.search(r"(?<![\w-])%s(?![\w-])" % re.escape(o), text) for o in action.option_strings):
+            if not set(action.option_strings) & _SAID_ONCE[script]:
+                missing.append(action.option_strings[-1])
+        elif action.choices and all(isinstance(c, str) and not c[:1].isdigit() for c in action.choices):
+            missing += ["%s %s" % (action.option_strings[-1], c) for c in action.choices
+                        if not re.search(r"(?<![\w.-])%s(?![\w-])" % re.escape(c), text)]
+    return missing
+
+
+def reference_usages(path: Path) -> list[tuple[int, list[str]]]:
+    """``(line, synopses)`` of each command a reference bullet documents:
+    ``- `roboray-sim trim --wings ... [--json]`:``, with the further
+    synopses of the same command in that bullet (``or `roboray-sim ...```)."""
+    out: list[tuple[int, list[str]]] = []
+    section = ""
+    for n, line in _prose_lines(path):
+        if line.startswith("## "):
+            section = line[3:].strip()
+        m = re.match(r"^- `(roboray-(?:sim|ground|flash) [^`]*)`", line)
+        if m:
+            out.append((n, [m.group(1)]))
+            continue
+        if section == "roboray-ground" and re.match(r"^- `[a-z]", line):
+            # the vehicle commands go by their names alone (`status`, `arm [--force]`), and one
+            # command's actions over several bullets (`log list`, ..., `log record FILE.tlog`)
+            for code in _INLINE_CODE.finditer(line):
+                if re.match(r"[a-z]", code.group(2)):
+                    usage = "roboray-ground " + code.group(2)
+                    same = [u for _, u in out if u[0].split()[:2] == usage.split()[:2]]
+                    if same:
+                        same[0].append(usage)
+                    else:
+                        out.append((n, [usage]))
+            continue
+        if out and line.startswith("  "):
+            for code in _INLINE_CODE.finditer(line):
+                if code.group(2).startswith(out[-1][1][0].split(" [")[0].split(" --")[0] + " "):
+                    out[-1][1].append(code.group(2))
+    return out
+
+
+def test_the_command_reference_gives_every_option_of_each_command():
+    # a user reads commands.md for what a command takes: 24 lines had fallen behind their parsers
+    usages = reference_usages(ROOT / "docs/user/commands.md")
+    assert len(usages) > 30
+    problems = ["docs/user/commands.md:%d: %s leaves out %s" % (n, u[0].split(" [")[0], ", ".join(missing))
+                for n, u in usages for missing in [missing_from_usage(u)] if missing]
+    assert not problems, "\n".join(problems)
+    assert missing_from_usage(["roboray-sim bench board [--cpu-mhz MHZ] [--json]"]) == [
+        "--build", "--no-romfs", "--write-model"]
+    assert missing_from_usage(["roboray-sim sil [--interpreter micropython|cpython]"])[:2] == [
+        "--scenario", "--speedup"]
+    assert "--interpreter roboray-unix" in missing_from_usage(["roboray-sim sil [--interpreter micropython|cpython]"])
+
+
 def test_every_file_the_docs_name_is_in_the_repository():
     assert sum(1 for path in DOCS for _ in named_paths(path)) > 50
     problems = [p for path in DOCS for p in missing_paths(path)]
