@@ -28,11 +28,13 @@ BOARD_PACKAGES = ("roboray.shared", "roboray.firmware")
 #: mpy-cross architecture of the RP2350's Cortex-M33 (single-precision FPU).
 MPY_ARCH = "armv7emsp"
 
-#: Modules a MicroPython board (rp2 port, 1.29) provides, plus our own.
+#: Modules a MicroPython board (rp2 port, 1.29) provides, plus our own
+#: (``logram``: RoboRay's builds only, tools/roboray_micropython/logram; its
+#: import is guarded, stock boards go without).
 ALLOWED_IMPORTS = frozenset(
     """array binascii collections errno gc hashlib io json machine math micropython
     os random re rp2 select struct sys time uctypes asyncio network deflate
-    framebuf vfs cryptolib""".split()
+    framebuf vfs cryptolib logram""".split()
 )
 
 _FSTRING_DEBUG = re.compile(r"=\s*(![rsa])?\s*(:[^}]*)?\}$")
