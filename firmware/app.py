@@ -325,10 +325,14 @@ class Vehicle:
             fs.commanded_reset()
         # the flight log beside the parameters: /logs on the board
         files = LogFiles(self.store.fs, root=path[:path.rfind("/") + 1] + "logs")
+        # its ring in the RAM the build keeps across a watchdog reset, if any
+        ram_of = getattr(self.profile, "log_ram", None)
         self.log = FlightLog(self.params, t, files, self.clock.ticks_us, self.clock.ticks_diff,
-                             refresh=reporter.refresh, fixes=link.ep)
+                             refresh=reporter.refresh, fixes=link.ep, ram=ram_of(m) if ram_of else None,
+                             watchdog_reset=reset_cause == getattr(m, "WDT_RESET", -1))
+        print(self.log.describe())
         want = self.params.get_int(self.params.index("LOG_FILE_BUFSIZE"))
-        if self.log.ring_kb != want:
+        if self.log.ring_kb != want and self.log.ram is None:
             print("log: a %d kB ring, the heap has no %d kB block free (LOG_FILE_BUFSIZE)"
                   % (self.log.ring_kb, want))
         link.ep.logs = LogTransfer(link.ep, files, self._armed, on_erase=self.log.erased, hidden=self.log.prepared,

@@ -103,3 +103,19 @@ def scratch(machine):
     if mem32 is None:
         return None
     return Scratch(mem32, _WATCHDOG_SCRATCH0)
+
+
+def log_ram(machine=None):
+    """The RAM RoboRay's MicroPython keeps across a watchdog reset for the
+    flight log's ring (a ``bytearray`` over it), or None on a build without
+    one (stock MicroPython: the ring is then in the heap).
+
+    The build places it (``logram``, a C module of
+    ``tools/roboray_micropython``: pico-sdk's ``.uninitialized_data``
+    section, which the C start-up does not zero, and the GC heap ends that
+    much early); its address and size are the build's, not this file's."""
+    try:
+        import logram
+    except ImportError:
+        return None
+    return logram.region()

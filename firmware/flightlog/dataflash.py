@@ -139,8 +139,11 @@ class Writer:
     count)`` of the oldest contiguous run of at most ``most`` of them and
     ``taken(count)`` lets them go once they are safe on flash."""
 
-    def __init__(self, size):
-        self.buf = bytearray(size)
+    def __init__(self, size, buf=None):
+        # buf: memory made elsewhere, at least ``size`` bytes (the RAM a
+        # watchdog reset keeps, ``logger.FlightLog``); the ring is its first
+        # ``size`` bytes
+        self.buf = bytearray(size) if buf is None else buf
         self.size = size
         self.head = 0       # where the next record goes
         self.tail = 0       # the oldest byte not yet taken

@@ -151,6 +151,13 @@ HEADER_PER_CALL = const(6)
 #: A new log's creation: header and parameters (~6 kB: two sectors), two
 #: files created (the log, LASTLOG.TXT), old logs maybe removed.
 CREATE_STALL_MS = const(300)
+#: The kept state behind the ring (``FlightLog._save``): two copies.
+_CTL_BYTES = const(64)
+_CTL_PACK = "<12I"
+_K_MAGIC = const(0x0E4C4F47)    # below 2**30: a small integer on the board
+_K_WHOLE = const(1)             # the log's header is whole
+_K_LOGGING = const(2)           # armed and logging
+_K_CREATE = const(4)            # its file is still to be made (first flush)
 
 _DEG100 = 5729.5779513082    # rad -> centidegrees
 
@@ -175,7 +182,7 @@ class FlightLog:
     """
 
     def __init__(self, params, telemetry, files, ticks_us, ticks_diff, refresh=None, expect_delay=None,
-                 sched=None, fixes=None):
+                 sched=None, fixes=None, ram=None, watchdog_reset=False):
         self.params = params
         self.t = telemetry
         self.files = files
@@ -188,17 +195,31 @@ class FlightLog:
         self._i_mask = params.index("LOG_BITMASK")
         self._i_disarmed = params.index("LOG_DISARMED")
         kb = params.get_int(params.index("LOG_FILE_BUFSIZE"))
+        #: the RAM a watchdog reset keeps (``boards/pico2.py log_ram``), None: the heap's
+        self.ram = ram
+        #: bytes of the ring LOG_FILE_BUFSIZE asked for and the kept RAM had no room for
+        self.ram_short = 0
         #: kB of ring the heap gave: LOG_FILE_BUFSIZE, or half of it again
         #: and again when no block that large is free (a fragmented heap)
         self.ring_kb = kb
-        while True:
-            try:
-                self.w = df.Writer(kb * 1024)
-                break
-            except MemoryError:
-                if kb <= _RING_MIN_KB:
-                    raise
-                kb //= 2
+        if ram is not None:
+            room = len(ram) - 2 * _CTL_BYTES
+            size = kb * 1024
+            if size > room:
+                self.ram_short = size - room
+                size = room
+            self._ctl = room
+            self.w = df.Writer(size, ram)
+            kb = size // 1024
+        else:
+            while True:
+                try:
+                    self.w = df.Writer(kb * 1024)
+                    break
+                except MemoryError:
+                    if kb <= _RING_MIN_KB:
+                        raise
+                    kb //= 2
         self.ring_kb = kb
         self.clock = df.Clock()
         self._last_us = ticks_us()
@@ -224,6 +245,102 @@ class FlightLog:
         self._overruns = 0
         self._slots = 0
         self.chunks = 0               # chunks written to flash
+        self._seq = 0                 # the kept state's sequence number
+        #: bytes of a dive's log found in the kept RAM after a watchdog reset (0: none)
+        self.kept_bytes = 0
+        self._kept = 0                # the log number the kept ring continues, until armed
+        self._hold = False            # the kept ring waits for the vehicle to rest
+        if ram is not None:
+            if not (watchdog_reset and self._recover()):
+                # a power-on (RAM as the supply left it), or nothing whole to keep
+                struct.pack_into(_CTL_PACK, ram, self._ctl, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+                struct.pack_into(_CTL_PACK, ram, self._ctl + _CTL_BYTES, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+            self._save()
+
+    def describe(self):
+        """One line for the console at start: where the ring lives and what
+        a reset mid-dive loses."""
+        if self.ram is None:
+            return ("log: a %d kB ring in the heap (no RAM kept across a reset on this build): "
+                    "a reset in flight loses the dive's log since arming" % self.ring_kb)
+        text = "log: a %d kB ring in RAM a watchdog reset keeps" % self.ring_kb
+        if self.ram_short:
+            text += " (LOG_FILE_BUFSIZE asks %d kB more than the build keeps)" % ((self.ram_short + 1023) // 1024)
+        if self.kept_bytes:
+            text += "; %d bytes of the dive's log kept over the reset" % self.kept_bytes
+        return text
+
+    # ------------------------------------------------------------ kept RAM
+    # Behind the ring, two copies of its state (``_CTL_BYTES`` each, written
+    # in turn, so a reset in the middle of a write leaves the other whole):
+    # magic, log number, head, tail, wrap, dropped, the clock's two parts,
+    # flags, the ring's size, a sequence number and a check of them all.
+    # Small integers only: this runs every call in flight.
+    def _save(self):
+        w = self.w
+        seq = (self._seq + 1) & 0xFFFF
+        self._seq = seq
+        flags = 0
+        if self._hdr < 0:
+            flags = _K_WHOLE
+            if self.logging:
+                flags |= _K_LOGGING
+            if self._create:
+                flags |= _K_CREATE
+        number = self.files.current
+        c = self.clock
+        lo = c.lo
+        hi = c.hi & 0xFFFF
+        dropped = w.dropped & 0xFFFFF
+        wrap = w.wrap + 1
+        check = (_K_MAGIC + number * 3 + w.head * 5 + w.tail * 7 + wrap * 11 + dropped * 13 + lo * 17
+                 + hi * 19 + flags * 23 + w.size * 29 + seq * 31) & 0x3FFFFFFF
+        struct.pack_into(_CTL_PACK, self.ram, self._ctl + (seq & 1) * _CTL_BYTES, _K_MAGIC, number, w.head, w.tail,
+                         wrap, dropped, lo, hi, flags, w.size, seq, check)
+
+    def _read_kept(self, slot):
+        """The state in copy ``slot``, or None when its check fails."""
+        v = struct.unpack_from(_CTL_PACK, self.ram, self._ctl + slot * _CTL_BYTES)
+        magic, number, head, tail, wrap, dropped, lo, hi, flags, size, seq, check = v
+        if magic != _K_MAGIC:
+            return None
+        if check != (magic + number * 3 + head * 5 + tail * 7 + wrap * 11 + dropped * 13 + lo * 17
+                     + hi * 19 + flags * 23 + size * 29 + seq * 31) & 0x3FFFFFFF:
+            return None
+        return v
+
+    def _recover(self):
+        """After a watchdog reset: the dive's log the ring still holds goes
+        on (the same log number), its records to flash once the vehicle
+        rests. Nothing when the state fails its check (a power cut: the RAM
+        lost it) or the ring is another size; True when the ring was taken."""
+        a = self._read_kept(0)
+        b = self._read_kept(1)
+        if a is None or (b is not None and (b[10] - a[10]) & 0xFFFF < 0x8000):
+            a = b
+        if a is None:
+            return False
+        magic, number, head, tail, wrap, dropped, lo, hi, flags, size, seq, check = a
+        w = self.w
+        if size != w.size or not flags & _K_WHOLE or not (number or flags & _K_CREATE):
+            return False
+        if not 0 <= tail <= size or not 0 <= head <= size or not 0 <= wrap <= size:
+            return False
+        w.head = head
+        w.tail = tail
+        w.wrap = wrap - 1
+        w.dropped = dropped
+        self._told_dropped = dropped
+        self._seq = seq
+        self.clock.lo = lo
+        self.clock.hi = hi
+        self.files.current = number
+        self._create = bool(flags & _K_CREATE)
+        self.kept_bytes = w.pending()
+        if flags & _K_LOGGING:
+            self._kept = number or -1      # (-1: its file is still to be made)
+            self._hold = True
+        return True
 
     # ------------------------------------------------------------ time
     def _now(self):
@@ -243,6 +360,8 @@ class FlightLog:
         if self.files.current and w.pending():
             self._drain()           # the last log's tail first: it is still
         w.clear()
+        self._kept = 0
+        self._hold = False
         self._reason = reason_text
         self._hdr = 0
         self._hdr_end = w.header_items(RECORDS) + self.params.count()
@@ -255,6 +374,16 @@ class FlightLog:
         made are recorded again), or a new one starts."""
         self._still = 0             # still again for STILL_S before anything goes to flash
         self._resting = False       # (and no "moving" event for the lift from the deck)
+        if self._kept:
+            # armed again after a watchdog reset (firmware/resume.py): the
+            # dive's log goes on where the reset left it
+            self._kept = 0
+            self.logging = True
+            self.msg("watchdog reset: log continues")
+            if self._mode >= 0:
+                self.mode(self._mode)
+            self.event(EV_ARMED)
+            return
         if self._prep:
             self._prep = False
             self.logging = True
@@ -401,6 +530,8 @@ class FlightLog:
     def erased(self):
         """The logs were erased (LOG_ERASE, disarmed): nothing waits for a file any more."""
         self.w.clear()
+        self._kept = 0
+        self._hold = False
         self._hdr = -1
         self._parm = -1
         self._prep = False
@@ -452,7 +583,18 @@ class FlightLog:
             if resting != self._resting:
                 self.event(EV_LAND_COMPLETE if resting else EV_NOT_LANDED)
         self._resting = resting
-        self._flush(resting or not armed)
+        harmless = resting or not armed
+        if self._hold:
+            # a ring kept over a reset in the water: still for STILL_S first
+            # (at rest on the bottom, or disarmed and still), as a log
+            # started by a reset in the water waits
+            if self._still >= _STILL_CALLS:
+                self._hold = False
+            else:
+                harmless = False
+        self._flush(harmless)
+        if self.ram is not None:
+            self._save()
 
     def _records(self, n):
         """The periodic records of call ``n`` (0-49), spread so that no call
@@ -582,6 +724,7 @@ class FlightLog:
         if not harmless or not (self.files.current or self._create) or not w.pending():
             if not self.logging and not self._prep and self.files.current and not w.pending():
                 self.files.current = 0      # the log is complete on flash
+                self._kept = 0              # (a kept log no arming continued: closed)
             return
         if self.expect_delay is not None:
             self.expect_delay(CREATE_STALL_MS if self._create else CHUNK_STALL_MS)
@@ -600,6 +743,8 @@ class FlightLog:
             ok = self.files.append(mv[o:o + n])
         if ok:
             w.taken(n)
+            if self.ram is not None:
+                self._save()        # (on flash now: a reset must not write them twice)
             self.chunks += 1
             if w.dropped != self._told_dropped:     # (said now: there is room again)
                 self._now()

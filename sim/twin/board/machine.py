@@ -34,7 +34,9 @@ side of every peripheral belongs to the twin, through ``twin``:
   swallow it); ``twin.power_cycle(cause)`` restarts the peripherals and
   sets what ``reset_cause()`` reports. rp2 knows only ``PWRON_RESET`` and
   ``WDT_RESET``; ``machine.reset()`` reboots through the watchdog, so the
-  next ``reset_cause()`` is ``WDT_RESET`` there and here.
+  next ``reset_cause()`` is ``WDT_RESET`` there and here. The flight log's
+  kept RAM (``logram``, on RoboRay's builds) lives through a watchdog reset
+  and is cleared at a power-on, as the scratch registers are.
 
 ``mem32`` emulates the watchdog's CTRL register (its ENABLE bit) and its
 eight SCRATCH registers (RP2350 datasheet 12.9.5: they keep their words
@@ -825,6 +827,29 @@ def time_pulse_us(pin, pulse_level, timeout_us=1000000):
     return -2
 
 
+def _clear_log_ram():
+    """A power-on: the RAM RoboRay's build keeps across a watchdog reset for
+    the flight log (``logram``, firmware/boards/pico2.py ``log_ram``) lost
+    what it held. On the twin's interpreters that have it (roboray-unix, the
+    emulated RP2350's RoboRay image) a reset is a new life in the same
+    process, which keeps it; here it is zeroed (the chip's cells settle to
+    whatever they settle to: the logger's check refuses either)."""
+    try:
+        import logram
+    except ImportError:
+        return      # stock builds: the ring is in the heap
+    r = logram.region()
+    n = len(r)
+    z = bytes(64)
+    i = 0
+    while i + 64 <= n:
+        r[i:i + 64] = z
+        i += 64
+    while i < n:
+        r[i] = 0
+        i += 1
+
+
 # ---------------------------------------------------------------- the twin
 class _Twin:
     """The outside of the board; see the module docstring."""
@@ -894,6 +919,7 @@ class _Twin:
             # the scratch registers live through a watchdog reset only
             for i in range(_SCRATCH_WORDS):
                 self.scratch[i] = 0
+            _clear_log_ram()
             for bus in self._i2c:
                 for dev in bus.values():
                     if hasattr(dev, "power_on"):
