@@ -98,13 +98,14 @@ def test_a_bad_interpreter_choice_for_the_emulated_board_is_refused():
 
 def test_the_default_twin_flies_on_it_and_allocates_little():
     """The twin's default: a drop flown on the host build; the firmware's
-    tasks allocate a few bytes a slot (floats boxed: kilobytes)."""
+    tasks allocate a few bytes a slot (floats boxed: kilobytes), counted
+    when asked (``count_heap``, as ``bench board`` does)."""
     import numpy as np
 
     from roboray.sim.twin.board import boardtime
     from roboray.sim.twin.runner import Options, Twin
 
-    twin = Twin(Options(scenario="passive-drop", depth=3.0, duration=10.0))
+    twin = Twin(Options(scenario="passive-drop", depth=3.0, duration=10.0, count_heap=True))
     r = twin.run()
     assert r["interpreter"].startswith("roboray-unix ")
     assert r["interpreter_build"]["obj_repr"] == "C"

@@ -175,7 +175,7 @@ def _twin_run(scenario: str, cpu_mhz: float, romfs: bool, seed: int = 0,
     from roboray.sim.twin.runner import Options, Twin
 
     twin = Twin(Options(scenario=scenario, seed=seed, interpreter="rp2350-emu", cpu_mhz=cpu_mhz, romfs=romfs,
-                        emu_build=build))
+                        emu_build=build, count_heap=True))
     report = twin.run()
     return report, twin
 

@@ -143,6 +143,12 @@ class Options:
     #: A board time model to charge instead of the calibrated one (tests:
     #: ``{"tasks": {name: [us a call, by mode]}, "gc_us": us}``).
     board_model: Optional[dict] = None
+    #: Count each task call's heap bytes (``board/boardtime.py``'s ``ALLOC``
+    #: and ``AUTO_GC`` records: ``bench board``'s flight figures). Off by
+    #: default: a count is ``gc.mem_alloc()``, a walk of the whole heap,
+    #: twice a task call; on the host build that was two thirds of the
+    #: board's time (the flight is the same either way).
+    count_heap: bool = False
     #: rp2350-emu: the board code in the Pico 2's ROMFS partition (run in
     #: place from flash, as ``roboray-flash deploy`` puts it on a Pico 2);
     #: None (the default) is ROMFS too, False puts it in /lib
@@ -588,6 +594,8 @@ class Twin:
                                             options.board_model)
         except FileNotFoundError as exc:
             raise ValueError(str(exc))
+        if self.board_time is not None:
+            self.board_time["heap"] = bool(options.count_heap)
         self.times = timing.BoardTimes()
         if options.speedup is not None and not options.speedup > 0:
             raise ValueError("--speedup %r must be > 0" % options.speedup)

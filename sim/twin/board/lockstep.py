@@ -185,18 +185,21 @@ class Lockstep:
             self.request()
             k = 0
         self._k = k + _ROW
-        s = self._steps[k:k + _ROW]
+        # indexed in place: a slice of the row would be a new tuple (garbage
+        # on the board's heap) at every step boundary
+        s = self._steps
         # dated at its boundary (now less the time still to step): after a
         # stall the IMU's FIFO batches each sample with its own step's motion
-        self.imu.set_motion(s[0], s[1], s[2], s[3], s[4], s[5], (vclock.now_us - self._acc) & 0x3FFFFFFF)
-        self.mag.set_field(s[6], s[7], s[8])
-        p = s[9]
+        self.imu.set_motion(s[k], s[k + 1], s[k + 2], s[k + 3], s[k + 4], s[k + 5],
+                            (vclock.now_us - self._acc) & 0x3FFFFFFF)
+        self.mag.set_field(s[k + 6], s[k + 7], s[k + 8])
+        p = s[k + 9]
         if p == p:   # NaN: unchanged
-            self.depth.set(p, s[10])
-        v = s[11]
+            self.depth.set(p, s[k + 10])
+        v = s[k + 11]
         if v == v:
             self.twin.set_adc_volts(ADC_CHANNEL, v / self.divider)
-        leak = s[12]
+        leak = s[k + 12]
         if leak == leak:
             self.twin.set_pin(LEAK_PIN, int(leak))
 
@@ -316,7 +319,7 @@ def _board_time(config):
     if not config:
         return None
     bt = boardtime.BoardTime(config["source"], config.get("model"), config.get("cpu_mhz", boardtime.REF_MHZ),
-                             config.get("ps_per_insn"))
+                             config.get("ps_per_insn"), config.get("heap", False))
     if bt.source == "emu":
         boardtime.bracket_emulation(machine, bt)
     global _bt, _run_loop
@@ -354,7 +357,8 @@ def run(param_path="/params.bin", frame_us=20000, step_us=10000, divider=3.0, bo
 
     ``board_time``: None (code is free: time moves only when the firmware
     sleeps) or ``{"source": "emu"|"model", "model": {...}, "cpu_mhz": 150,
-    "ps_per_insn": N}`` (``boardtime.py``).
+    "ps_per_insn": N, "heap": bool}`` (``boardtime.py``; ``heap``: count
+    each task call's heap bytes).
 
     The application is imported here and where it is used, not at the
     module's top: the twin's objects then lead to the firmware's only
