@@ -23,7 +23,18 @@ The file system is injected (``param_store.Files``: the board's by default,
 the twin's flash-charging wrapper there).
 """
 
+import io
+
 from roboray.firmware.param_store import Files
+
+#: MicroPython's streams write a part of a buffer, ``write(buf, off, n)``,
+#: so an append needs no slice of the log's ring (a memoryview slice is an
+#: allocation); CPython's do not.
+try:
+    io.BytesIO().write(b"", 0, 0)
+    _STREAM_PARTS = True
+except TypeError:
+    _STREAM_PARTS = False
 
 ROOT = "/logs"
 LASTLOG = "LASTLOG.TXT"
@@ -54,6 +65,8 @@ class LogFiles:
         self.fs = fs if fs is not None else Files()
         self.root = root
         self.current = 0          # the number of the log being written, 0: none
+        self._path = ""           # its path, made once (an append then formats nothing)
+        self._path_of = 0
         self.write_errors = 0     # appends the flash refused (full, or failing)
         self.removed = 0          # old logs removed for room
 
@@ -150,14 +163,23 @@ class LogFiles:
         self.current = n
         return n
 
-    def append(self, data):
-        """Add ``data`` (bytes-like) to the current log; False when the flash refused it."""
+    def append(self, data, off=0, n=-1):
+        """Add ``data`` (bytes-like; ``n`` bytes from ``off`` of it, -1: to
+        its end) to the current log; False when the flash refused it."""
         if not self.current:
             return False
+        if self._path_of != self.current:
+            self._path = self.path(self.current)
+            self._path_of = self.current
+        if n < 0:
+            n = len(data) - off
         try:
-            f = self.fs.open(self.path(self.current), "ab")
+            f = self.fs.open(self._path, "ab")
             try:
-                f.write(data)
+                if _STREAM_PARTS:
+                    f.write(data, off, n)
+                else:
+                    f.write(memoryview(data)[off:off + n])
             finally:
                 f.close()
         except OSError:

@@ -379,7 +379,7 @@ class FlightLog:
             # dive's log goes on where the reset left it
             self._kept = 0
             self.logging = True
-            self.msg("watchdog reset: log continues")
+            self.msg(b"watchdog reset: log continues")
             if self._mode >= 0:
                 self.mode(self._mode)
             self.event(EV_ARMED)
@@ -391,7 +391,7 @@ class FlightLog:
                 return              # its header is still being packed: EV ARMED follows it
             if self.params.version != self._prep_version:
                 self._parm = 0      # every parameter again, a few a call
-            self.msg("armed")
+            self.msg(b"armed")         # (bytes: a str is encoded, an allocation, at each arming)
             if self._mode >= 0:
                 self.mode(self._mode)
             self.event(EV_ARMED)
@@ -728,19 +728,22 @@ class FlightLog:
             return
         if self.expect_delay is not None:
             self.expect_delay(CREATE_STALL_MS if self._create else CHUNK_STALL_MS)
-        o, n = w.chunk(CHUNK)
-        mv = memoryview(w.buf)
+        # w.chunk(CHUNK) written out: its tuple would be garbage at each flush
+        o = w.tail
+        n = (w.head if w.wrap < 0 else w.wrap) - o
+        if n > CHUNK:
+            n = CHUNK
         if self._create:
             self._create = False
             try:
-                self.files.create(mv[o:o + n], w.size, self._hdr_bytes if self._prep else 0)
+                self.files.create(memoryview(w.buf)[o:o + n], w.size, self._hdr_bytes if self._prep else 0)
                 ok = True
             except OSError:
                 self.files.write_errors += 1
                 self.files.current = 0
                 ok = False
         else:
-            ok = self.files.append(mv[o:o + n])
+            ok = self.files.append(w.buf, o, n)
         if ok:
             w.taken(n)
             if self.ram is not None:

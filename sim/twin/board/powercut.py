@@ -26,15 +26,20 @@ class _File:
         self._f = f
         self._counted = counted
 
-    def write(self, data):
+    def write(self, data, off=0, n=-1):
+        # (buf, off, n): part of a buffer, as MicroPython's streams take it
+        # (firmware/flightlog/files.py), passed on as it came
         owner = self._owner
+        size = len(data) - off if n < 0 else n
         if owner.board_time is not None:
-            owner.board_time.flash("write", len(data))
+            owner.board_time.flash("write", size)
         if owner.step(self._counted):
-            self._f.write(data[:len(data) // 2])
+            self._f.write(memoryview(data)[off:off + size // 2])
             self._f.close()
-            raise PowerCut("power cut writing %d bytes" % len(data))
-        return self._f.write(data)
+            raise PowerCut("power cut writing %d bytes" % size)
+        if off == 0 and n < 0:
+            return self._f.write(data)
+        return self._f.write(data, off, size)
 
     def read(self, *args):
         self._owner.alive()
