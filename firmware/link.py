@@ -20,14 +20,6 @@ What the ground sends reaches the rest of the firmware through it:
   handles only position setpoints, so ``VehicleEndpoint`` adds this;
 - a landing in TARGET (``firmware/landing.py``) is the mission's target
   reached: MISSION_ITEM_REACHED (``shared/mavlink/mission.py``);
-- LOCAL_POSITION_NED_COV goes out here, at half the ``SR_POSITION`` rate
-  (1 Hz by default; 237 bytes, 4 % of the 57600-baud radio) when the line
-  has room: the position with its variances (``Telemetry.var_ned``), north
-  and east growing while the estimate dead-reckons without fixes, so a
-  ground station sees how far to trust a position reckoned below the
-  radio's reach. (The endpoint's streams send LOCAL_POSITION_NED; this
-  frame belongs in its position stream, and moves there when that takes
-  a firmware-filled frame.)
 - arm, disarm and mode commands go to ``shared/modes.py`` (the endpoint's
   doing, through the arming and mode checks of ``firmware/failsafe.py``);
 - a reboot (PREFLIGHT_REBOOT_SHUTDOWN, refused while armed) saves the
@@ -57,7 +49,6 @@ from array import array
 
 from roboray.firmware.flash_record import FlashRecord
 from roboray.firmware.landing import Touchdown
-from roboray.shared.estimator import health as eh
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.endpoint import Endpoint, ticks_diff
 from roboray.shared.mavlink.position_input import velocity_ok
@@ -71,16 +62,6 @@ except ImportError:  # CPython
 
 _VELOCITY_BITS = const(0x38)
 _FLUSH_TRIES = const(40)    # x 5 ms: time the COMMAND_ACK of a reboot gets to leave
-# LOCAL_POSITION_NED_COV: the head (time_usec, x..az) and where the 45-float
-# covariance (the upper triangle of the 9x9 of position, velocity,
-# acceleration, row by row) starts; the diagonal's places in it
-_COV_HEAD = "<Q9f"
-_COV_AT = const(44)
-_COV_BYTES = const(180)
-_COV_DIAGONAL = (0, 9, 17, 24, 30, 35, 39, 42, 44)
-_NAN = float("nan")
-_COV_DEPTH = eh.COV_DEPTH
-_COV_VZ = eh.COV_VZ
 
 #: The signing record's name, beside the parameter file.
 SIGNING_FILE = "signing.bin"
@@ -253,17 +234,6 @@ class Link:
         self.touchdown = Touchdown(nav, modes)
         self.telemetry = telemetry
         self.params = params
-        self._i_sr_pos = params.index("SR_POSITION")
-        self._cov_version = -1
-        self._cov_period_ms = 0
-        self._cov_due_ms = 0
-        # the covariance's bytes: zeros but the diagonal (written at each
-        # send); accelerations are not estimated, their variances NaN
-        self._cov = bytearray(_COV_BYTES)
-        for k in (39, 42, 44):
-            struct.pack_into("<f", self._cov, 4 * k, _NAN)
-        #: LOCAL_POSITION_NED_COV frames sent.
-        self.cov_sent = 0
         try:    # AUTOPILOT_VERSION says which build this is
             from roboray.firmware import build_info
             self.ep.set_version(build_info.VERSION, build_info.REVISION)
@@ -285,52 +255,12 @@ class Link:
                 ep.slot_max_us = w
         now = self._clock.ticks_ms()
         ep.update(now)
-        if ticks_diff(now, self._cov_due_ms) >= 0:
-            self._send_cov(now)
         if self.touchdown.update(now):
             ep.mission.reached()
         self.keeper.service(now, self.modes.armed)
         if ep.reboot_requested:
             ep.reboot_requested = False
             self.reboot()
-
-    def _send_cov(self, now):
-        """LOCAL_POSITION_NED_COV when the line has room (see the module docstring)."""
-        p = self.params
-        if p.version != self._cov_version:
-            self._cov_version = p.version
-            rate = p.get(self._i_sr_pos)
-            self._cov_period_ms = int(2000.0 / rate) if rate > 0.0 else 0
-        if self._cov_period_ms <= 0:
-            self._cov_due_ms = (now + 1000) & 0x3FFFFFFF   # off: looked at again in a second
-            return
-        ep = self.ep
-        if not ep._line_free():
-            return
-        self.reporter.position()
-        t = self.telemetry
-        pos = t.pos_ned
-        v = t.vel_ned
-        r = t.var_ned
-        cov = self.nav.est.cov
-        c = self._cov
-        d = _COV_DIAGONAL
-        # position north, east, down; velocity north, east, down
-        struct.pack_into("<f", c, 4 * d[0], r[0])
-        struct.pack_into("<f", c, 4 * d[1], r[1])
-        struct.pack_into("<f", c, 4 * d[2], cov[_COV_DEPTH])
-        struct.pack_into("<f", c, 4 * d[3], r[2])
-        struct.pack_into("<f", c, 4 * d[4], r[3])
-        struct.pack_into("<f", c, 4 * d[5], cov[_COV_VZ])
-        w = ep.writer
-        b = w.buf
-        o = w.payload
-        struct.pack_into(_COV_HEAD, b, o, now * 1000, pos[0], pos[1], pos[2], v[0], v[1], v[2], _NAN, _NAN, _NAN)
-        b[o + _COV_AT:o + _COV_AT + _COV_BYTES] = c
-        b[o + _COV_AT + _COV_BYTES] = msg.MAV_ESTIMATOR_TYPE_AUTOPILOT
-        ep._send(msg.MSG_LOCAL_POSITION_NED_COV)
-        self.cov_sent += 1
-        self._cov_due_ms = (now + self._cov_period_ms) & 0x3FFFFFFF
 
     def send_text(self, severity, text):
         self.ep.send_text(severity, text)

@@ -90,6 +90,10 @@ class Reporter:
         vn[1] = ch[1]
         vn[2] = ch[2]
         vn[3] = ch[3]
+        c = est.cov
+        z = t.var_dz
+        z[0] = c[_h.COV_DEPTH]
+        z[1] = c[_h.COV_VZ]
         n = est.nav
         p = t.pos_ned
         p[0] = n[2]

@@ -134,6 +134,7 @@ _F_BATTERY = const(0x10000)
 _F_MISSION = const(0x20000)       # MISSION_CURRENT
 _F_CURRENT_MODE = const(0x40000)
 _F_AVAILABLE = const(0x80000)     # AVAILABLE_MODES, the next of those asked for
+_F_POS_COV = const(0x100000)      # LOCAL_POSITION_NED_COV, with every other position frame
 # A stream's telemetry is refreshed (on_refresh) with its first frame, which
 # has its lowest bit: the others of the stream go out after it and use the same.
 # each stream's frames, by stream number
@@ -165,6 +166,14 @@ CAPABILITIES = (msg.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | msg.MAV_PROTOCOL_CAPABILI
 _VERSION_HEAD = "<QQIIIIHH"
 _VERSION_HASH = const(36)
 _TEXT_LEN = const(50)             # STATUSTEXT text bytes
+# LOCAL_POSITION_NED_COV: the head (time_usec, x..az), then the 45-float
+# covariance (the upper triangle of the 9x9 of position, velocity,
+# acceleration, row by row) at _COV_AT; the diagonal's places in it
+_COV_HEAD = "<Q9f"
+_COV_AT = const(44)
+_COV_N = const(45)
+_COV_DIAGONAL = (0, 9, 17, 24, 30, 35, 39, 42, 44)
+_NAN = float("nan")
 def ticks_diff(a, b):
     """a - b on a 2**30 wrapping millisecond clock, as time.ticks_diff."""
     return ((a - b + _TICKS_HALF) & _TICKS_MASK) - _TICKS_HALF
@@ -275,6 +284,12 @@ class Endpoint:
         self._mode_sent = -1    # the mode CURRENT_MODE last said
         self._modes_asked = False   # a ground station asked for the standard modes' messages
         self._hb_odd = False    # CURRENT_MODE goes with every other heartbeat
+        self._pos_odd = False   # LOCAL_POSITION_NED_COV goes with every other position frame
+        # its covariance: zeros but the diagonal (written at each send);
+        # accelerations are not estimated, their variances NaN
+        self._cov = array("f", [0.0] * _COV_N)
+        for k in _COV_DIAGONAL[6:]:
+            self._cov[k] = _NAN
         self._euler = array("f", [0.0, 0.0, 0.0])
         self.now_ms = 0
         # for the firmware
@@ -451,6 +466,14 @@ class Endpoint:
                         left = period
                     due[k] = d
                     pend |= _STREAM_FRAMES[k]
+                    if k == _S_POSITION:
+                        # the position with its variances at half the
+                        # stream's rate (1 Hz by default: 237 bytes, 4 % of
+                        # a 57600-baud radio)
+                        odd = not self._pos_odd
+                        self._pos_odd = odd
+                        if odd:
+                            pend |= _F_POS_COV
                 if left < soonest:
                     soonest = left
                     wake = d
@@ -793,6 +816,33 @@ class Endpoint:
             self._send(msg.MSG_BATTERY_STATUS)
         elif f == _F_MISSION:
             self.mission.send_current()
+        elif f == _F_POS_COV:
+            # after LOCAL_POSITION_NED, whose refresh it uses: the position
+            # with its variances (Telemetry.var_ned, var_dz), north and east
+            # growing while the position is dead-reckoned without fixes, so
+            # a ground station sees how far to trust a position reckoned
+            # below the radio's reach
+            p = t.pos_ned
+            v = t.vel_ned
+            r = t.var_ned
+            z = t.var_dz
+            c = self._cov
+            d = _COV_DIAGONAL
+            c[d[0]] = r[0]
+            c[d[1]] = r[1]
+            c[d[2]] = z[0]
+            c[d[3]] = r[2]
+            c[d[4]] = r[3]
+            c[d[5]] = z[1]
+            # time_usec wraps at 2**20 ms, a small int (as SERVO_OUTPUT_RAW's)
+            struct.pack_into(_COV_HEAD, b, o, (now & 0xFFFFF) * 1000, p[0], p[1], p[2], v[0], v[1], v[2],
+                             _NAN, _NAN, _NAN)
+            # float by float: a slice copy builds a slice object
+            at = o + _COV_AT
+            for k in range(_COV_N):
+                struct.pack_into("<f", b, at + 4 * k, c[k])
+            b[at + 4 * _COV_N] = msg.MAV_ESTIMATOR_TYPE_AUTOPILOT
+            self._send(msg.MSG_LOCAL_POSITION_NED_COV)
 
 
 def _clamp16(x):

@@ -35,7 +35,8 @@ def stream_of(msgid):
     """The stream message ``msgid`` goes out in, or -1."""
     if msgid == msg.MSG_ATTITUDE or msgid == msg.MSG_ATTITUDE_QUATERNION:
         return S_ATTITUDE
-    if msgid == msg.MSG_LOCAL_POSITION_NED or msgid == msg.MSG_POSITION_TARGET_LOCAL_NED:
+    if msgid == msg.MSG_LOCAL_POSITION_NED or msgid == msg.MSG_POSITION_TARGET_LOCAL_NED \
+            or msgid == msg.MSG_LOCAL_POSITION_NED_COV:
         return S_POSITION
     if msgid == msg.MSG_SCALED_PRESSURE or msgid == msg.MSG_SCALED_IMU:
         return S_SENSORS

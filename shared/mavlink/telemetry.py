@@ -22,6 +22,8 @@ class Telemetry:
     var_ned : array('f', 4)
         Horizontal variances: north, east (m^2), north and east velocity
         ((m/s)^2); they grow while the position is dead-reckoned.
+    var_dz : array('f', 2)
+        Depth (m^2) and vertical speed ((m/s)^2) variances.
     target_ned : array('f', 3)
         Current target position (m, NED); ``has_target`` says whether it is set.
     env : array('f', 3)
@@ -49,6 +51,7 @@ class Telemetry:
         self.pos_ned = array("f", [0.0, 0.0, 0.0])
         self.vel_ned = array("f", [0.0, 0.0, 0.0])
         self.var_ned = array("f", [0.0] * 4)
+        self.var_dz = array("f", [0.0, 0.0])
         self.target_ned = array("f", [0.0, 0.0, 0.0])
         self.has_target = False
         self.env = array("f", [0.0, 101325.0, 20.0])
