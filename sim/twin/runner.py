@@ -199,10 +199,15 @@ def save_board_fs(board: Any, folder: Path) -> list[str]:
 
 # ---------------------------------------------------------------- boards
 #: How long the host polls for the board's next request before it sleeps
-#: (``interpreter.wait_readable``): longer than the board takes for a frame
-#: (~1 ms), so the host is awake when the request comes and the board's
-#: write does not pay for waking it.
-SPIN_S = 0.003
+#: (``interpreter.wait_readable``): none. Polling spared the board the
+#: wake-up of a sleeping host (~80 us a frame on the WebAssembly port), but
+#: kept a core busy for the whole of the board's frame: on this 2-core
+#: machine, with anything else running (the suite's other worker), the
+#: board lost that core. Measured at load ~4, target-landing: roboray-unix
+#: 8.1-9.1x real time polling 3 ms, 13.2-14.2x not (host CPU 1.7 s a run ->
+#: 0.6 s); WebAssembly 9.3-9.6x against 10.2-10.4x. The board does not
+#: wait on the host anyway: the reply it reads was sent a frame earlier.
+SPIN_S = 0.0
 
 #: Where a build puts ``build_info`` (``tools/flash/buildinfo.py``).
 BUILD_INFO_PATH = "/lib/roboray/firmware/build_info.py"
@@ -368,7 +373,7 @@ class CPythonBoard:
             writer.flush()
             while True:
                 while b"\n" not in pending:
-                    # polled first, as for the WebAssembly port (SPIN_S)
+                    # (SPIN_S: polled first, if at all)
                     wait_readable(from_child_r, SPIN_S, None)
                     chunk = os.read(from_child_r, 1 << 16)
                     if not chunk:
@@ -488,7 +493,7 @@ class RoboRayUnixBoard(MicroPythonUnixBoard):
         from roboray.tools.micropython import rp2350_emu, roboray_host
 
         env = dict(os.environ, MICROPYPATH=str(self.lib))
-        heap = rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP
+        heap = rp2350_emu.pico2_heap("roboray") + rp2350_emu.TWIN_HEAP   # (the log's RAM out of it)
         return roboray_host.command("-X", "heapsize=%d" % heap, "-c", self._boot_code(fd_in, fd_out, config)), env
 
 
@@ -549,7 +554,7 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
                 "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
         main = self.dir / "boot_twin.py"
         main.write_text(code)
-        return rp2350_emu.command(main.name, heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
+        return rp2350_emu.command(main.name, heap_bytes=rp2350_emu.pico2_heap(self.build) + rp2350_emu.TWIN_HEAP,
                                   path=() if self.romfs else (self.lib.relative_to(self.dir).as_posix(),),
                                   romfs=self.romfs, build=self.build), None
 
