@@ -15,17 +15,11 @@ from roboray.firmware.param_store import Files
 from roboray.shared import param_defs
 from roboray.shared.mavlink.telemetry import Telemetry
 from roboray.shared.params import ParamTable
+from roboray.tools.micropython import rp2350_emu
 
 STEP_US = 20_000
 #: logram's size in RoboRay's builds (tools/roboray_micropython/mpconfig_roboray.h)
 RAM_BYTES = 80 * 1024 + 128
-
-
-def ram_bytes_of_the_build():
-    from pathlib import Path
-    import re
-    h = (Path(__file__).resolve().parent.parent / "tools" / "roboray_micropython" / "mpconfig_roboray.h").read_text()
-    return eval(re.search(r"#define ROBORAY_LOG_RAM_BYTES \((.*)\)", h).group(1))   # noqa: S307 - our header
 
 
 class Life:
@@ -66,7 +60,7 @@ def records(path):
 
 
 def test_the_region_is_the_builds_size():
-    assert ram_bytes_of_the_build() == RAM_BYTES
+    assert rp2350_emu.log_ram_bytes() == RAM_BYTES
 
 
 def test_a_watchdog_reset_mid_dive_keeps_the_dives_records_in_the_same_log(tmp_path):

@@ -69,6 +69,27 @@ PICO2_HEAP_SOURCE = (
 #: clock, lockstep), which a real board does not carry.
 TWIN_HEAP = 128 * 1024
 
+
+def log_ram_bytes() -> int:
+    """The RAM RoboRay's builds set aside for the flight log's ring
+    (``logram``: ROBORAY_LOG_RAM_BYTES in tools/roboray_micropython/mpconfig_roboray.h,
+    the one configuration the three builds compile)."""
+    import re
+
+    header = Path(__file__).resolve().parent.parent / "roboray_micropython" / "mpconfig_roboray.h"
+    m = re.search(r"^#define ROBORAY_LOG_RAM_BYTES \((\d+) \* 1024 \+ (\d+)\)$", header.read_text(), re.M)
+    if m is None:
+        raise RuntimeError("%s: no ROBORAY_LOG_RAM_BYTES (N * 1024 + M)" % header)
+    return int(m.group(1)) * 1024 + int(m.group(2))
+
+
+def pico2_heap(build: str = "roboray") -> int:
+    """A Pico 2's GC heap on ``build``: ``PICO2_HEAP``, less the flight
+    log's RAM on RoboRay's builds, whose linker puts it before the heap
+    (the ring it holds is then out of the heap: the free heap is the same)."""
+    _image(build)
+    return PICO2_HEAP - (log_ram_bytes() if build == "roboray" else 0)
+
 #: QEMU's -icount shift: 2**6 ns of virtual time an instruction. Any shift
 #: of 5 or more gives exact instruction counts (the guest's counter ticks
 #: at least once an instruction); counts are deterministic for one shift.
@@ -271,6 +292,7 @@ def _compile_tree(tree: str) -> None:
             os.remove(path)
 
 
-__all__ = ["IMAGE", "IMAGES", "BUILDS", "interpreter_build", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP", "ICOUNT_SHIFT",
+__all__ = ["IMAGE", "IMAGES", "BUILDS", "interpreter_build", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP",
+           "log_ram_bytes", "pico2_heap", "ICOUNT_SHIFT",
            "ROMFS_BYTES", "ROMFS_ADDR", "available", "require", "command", "run", "version", "install_lib",
            "make_romfs"]

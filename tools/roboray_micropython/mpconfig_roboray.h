@@ -16,4 +16,11 @@
 #define MICROPY_OBJ_REPR (MICROPY_OBJ_REPR_C)
 #define MICROPY_FLOAT_IMPL (MICROPY_FLOAT_IMPL_FLOAT)
 
+// The flight log's RAM, kept across a watchdog reset (logram/modlogram.c):
+// the ring of the default LOG_FILE_BUFSIZE (80 kB) and 128 bytes for its
+// indices and check word (firmware/flightlog/logger.py). Each build's port
+// configuration names the section its start-up leaves alone
+// (ROBORAY_LOG_RAM_SECTION); the host build needs none.
+#define ROBORAY_LOG_RAM_BYTES (80 * 1024 + 128)
+
 #endif

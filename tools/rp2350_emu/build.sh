@@ -41,6 +41,8 @@ cp -r "$HERE/port" "$WORK/port"
 rm -rf "$WORK/port/build"
 mkdir -p "$WORK/config" "$OUT"
 cp "$HERE/../roboray_micropython/mpconfig_roboray.h" "$WORK/config/"
+# logram (the flight log's RAM kept across a watchdog reset): RoboRay's build only
+cp -r "$HERE/../roboray_micropython/logram" "$WORK/config/"
 for build in roboray stock; do
     roboray=0
     [ "$build" = roboray ] && roboray=1
@@ -57,13 +59,19 @@ GCC_VERSION=$(arm-none-eabi-gcc --version | head -1)
 NEWLIB_VERSION=$(dpkg-query -W -f='${Version}' libnewlib-arm-none-eabi 2>/dev/null || echo unknown)
 FLAGS=$(sed -n 's/^ARCH = //p; s/^OPT = //p' "$HERE/port/Makefile" | tr '\n' ' ')
 HEAP=$(sed -n 's/^#define DEFAULT_HEAP_BYTES (\(.*\))$/\1/p' "$HERE/port/board.h")
+logram() {
+    set -- $(arm-none-eabi-objdump -h "$WORK/build-roboray/firmware.elf" | awk '$2 == ".uninitialized_data" {print $3, $4}')
+    printf '%d bytes at 0x%s' "0x$1" "$2"
+}
 sizes() {
     arm-none-eabi-size "$WORK/build-$1/firmware.elf" | tail -1 | awk '{print "text " $1 ", data " $2 ", bss " $3}'
 }
 cat > "$OUT/BUILD.txt" <<INFO
 MicroPython for an emulated RP2350-class board (QEMU mps3-an547), two builds:
 roboray-rp2350-emu.elf: RoboRay MicroPython, with tools/roboray_micropython/mpconfig_roboray.h
-  (floats in the object word, MICROPY_OBJ_REPR_C; single precision); the default
+  (floats in the object word, MICROPY_OBJ_REPR_C; single precision); the default;
+  with the logram module (tools/roboray_micropython/logram): $(logram) in DTCM,
+  .uninitialized_data, which startup.c does not zero
   sha256: $(cut -d' ' -f1 "$OUT/roboray-rp2350-emu.elf.sha256")
   Sections: $(sizes roboray)
 stock-rp2350-emu.elf: stock configuration (floats boxed on the heap, MICROPY_OBJ_REPR_A),

