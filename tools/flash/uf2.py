@@ -21,7 +21,8 @@ erratum RP2350-E10 on A2 chips (pico-sdk ``tools/CMakeLists.txt``:
 board sets). Checked: for this repository's Pico 2 firmware ELF, picotool
 2.2.0 (built from its tag, without USB) ``uf2 convert firmware.elf out.uf2
 --family rp2350-arm-s --abs-block`` and :func:`from_elf` give the same
-bytes (sha256 5bcd6dc0..., ``roboray-pico2.uf2``), and ``picotool info -a``
+bytes (sha256 5bcd6dc0..., ``roboray-pico2.uf2`` before its rebuild with the
+flight log's RAM, now fe2f5fea...), and ``picotool info -a``
 reads its IMAGE_DEF (RP2350, Arm Secure) at 0x10000138.
 
 :func:`check` refuses a UF2 the boot ROM would not start as an RP2350 Arm
