@@ -44,6 +44,22 @@ def pytest_sessionstart(session):
     model.body_rhs(x0, np.zeros((1, 4)))
 
 
+def pytest_configure(config):
+    """An xdist worker takes its share of the cores for numba's threads:
+    with one worker a core (``-n auto``), a batch kernel on two threads in
+    each worker had four threads on two cores, and every kernel call's
+    threads waited on each other (``sim/identify``: ~80,000 calls a fit).
+    The numbers do not depend on the thread count (``kernels._advance``,
+    tests/test_dynamics_parallel.py); the tests that need threads set them."""
+    workers = getattr(config, "workerinput", {}).get("workercount")
+    if workers:
+        import os
+
+        import numba
+
+        numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, (os.cpu_count() or 1) // workers)))
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if "micropython" in getattr(item, "fixturenames", ()):
