@@ -37,14 +37,23 @@
                      vehicle is still or disarmed (phase 1;
                      ``firmware/flightlog/``)
    gc        300 ms  ``collector.collect()``, a planned stall (phase 9: no
-                     control), in a slot with nav only
+                     control), in a slot with nav only; stock MicroPython
+                     only (below)
    ========  ======  ======================================================
 
-   It says at start, in a STATUSTEXT beside the banner, which MicroPython
-   it runs on (``collector.floats_boxed()``: stock boxes every float,
-   RoboRay's build keeps it in the object word) and that it collects
-   every 300 ms on both (RoboRay's build still leaves ~169 B an armed
-   slot: ``docs/design/board-time.md``).
+   Which MicroPython it runs on decides the collection, and it says which
+   once, in a STATUSTEXT beside the banner (``collector.floats_boxed()``).
+   Stock MicroPython boxes every float result (~3.5 kB of garbage a slot)
+   and keeps the "gc" task: ``MicroPython 1.29: floats boxed, GC every 300
+   ms``. RoboRay's build keeps a float in the object word and a flight
+   slot leaves a few bytes (``roboray-sim bench board``), so it has no "gc"
+   task: ``RoboRay MicroPython 1.29: no GC in flight``. The log task
+   collects at rest (disarmed, or armed and still on the bottom) in a slot
+   its flash write stalls anyway, at most once a second, or when half the
+   heap's estimate is used; in flight only when the estimate
+   (``collector.Collections``: slots since the last collection, no heap
+   walk) runs low, then with a STATUSTEXT and a log MSG ``Heap low:
+   collected in flight``.
 
    Why the collection is a task: on a Pico 2 one ``gc.collect()`` walks
    the whole live heap, tens of ms (counted on the emulated RP2350;
@@ -230,8 +239,10 @@ class Vehicle:
         self.log = None
         self.problems = []
         self.warnings = []
-        #: False on RoboRay's build (floats in the object word).
+        #: False on RoboRay's build (floats in the object word); and then
+        #: ``collections``, when it collects (``collector.Collections``).
         self.floats_boxed = True
+        self.collections = None
         self.collection_text = ""
 
     def _param(self, name, default):
@@ -369,20 +380,20 @@ class Vehicle:
         # a budget of its longest call: a slot that nav, depth and the radio
         # filled passes it to the next
         s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_COST_US)
-        # the collection, announced as the stall it is, in a slot with nav
-        # only; collector.collect, not a method of the vehicle: the
-        # collector's order (firmware/collector.py) cannot see into a
-        # bound method. On both builds for now: RoboRay's (floats in the
-        # object word) still leaves ~169 B an armed slot (the log, the
-        # radio), and collecting only when a heap estimate ran low left
-        # the allocator to collect inside tasks on the emulated RP2350
-        # (11-19 overruns in a 12 s passive drop; docs/design/board-time.md)
-        s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
+        # Which MicroPython this is decides when the loop collects (see the
+        # module docstring). Stock: every GC_MS, announced as the stall it
+        # is, in a slot with nav only; collector.collect, not a method of
+        # the vehicle: the collector's order (firmware/collector.py) cannot
+        # see into a bound method. RoboRay's build: log_step collects at
+        # rest, and in flight only when the heap's estimate is low.
         self.floats_boxed = collector.floats_boxed()
         if self.floats_boxed:
+            s.add("gc", collector.collect, GC_MS, phase=GC_PHASE, stall_ms=GC_STALL_MS)
             text = "%s: floats boxed, GC every %d ms" % (_impl(), GC_MS)
         else:
-            text = "RoboRay %s: GC every %d ms" % (_impl(), GC_MS)
+            gc.collect()
+            self.collections = collector.Collections(gc.mem_free())
+            text = "RoboRay %s: no GC in flight" % _impl()
         # said once, on the link and in the log, beside the build's banner
         self.collection_text = text
         self.link.ep.send_text(6, text)    # MAV_SEVERITY_INFO
@@ -406,10 +417,31 @@ class Vehicle:
             self.link.ep.send_text(5, "Params: saved once disarmed or at rest")    # MAV_SEVERITY_NOTICE
 
     def log_step(self):
-        """The flight log's task: records to RAM, to flash when harmless."""
+        """The flight log's task: records to RAM, to flash when harmless;
+        on RoboRay's build, the collection when one is due (see
+        ``build_loop``)."""
         m = self.modes
+        log = self.log
+        chunks = log.chunks
         # MODE records carry HEARTBEAT's custom_mode, as ArduPilot's
-        self.log.step(m.armed, modes_mod.CUSTOM[m.mode])
+        log.step(m.armed, modes_mod.CUSTOM[m.mode])
+        c = self.collections
+        if c is not None:
+            slot = self.sched.slot
+            k = c.due(slot, log.resting(), log.chunks != chunks)
+            if k:
+                self.sched.expect_delay_ms(GC_STALL_MS)
+                collector.collect()
+                if k == 2:
+                    # the estimate ran out in flight: a stall the pilot and
+                    # the log hear of (MAV_SEVERITY_WARNING; the text goes
+                    # to the log as a MSG)
+                    c.done(slot, -1, True)
+                    self.link.ep.send_text(4, "Heap low: collected in flight")
+                else:
+                    # at rest the heap may be walked: the free heap read
+                    # again for the next estimate
+                    c.done(slot, gc.mem_free(), False)
 
     def control(self):
         """The control task: the flight step, then the dive's state kept

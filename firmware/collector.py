@@ -280,3 +280,55 @@ def floats_boxed():
         return True
     a = float("1.5")     # made at run time: not one shared constant
     return a is not float("1.5")
+
+
+#: On RoboRay's build: the bytes a flight slot is taken to leave at most,
+#: for the heap's estimate. The heap is not read in flight: ``gc.mem_free()``
+#: and ``gc.mem_alloc()`` both walk the whole allocation table (~17.6 ms on
+#: a Pico 2, ``py/modgc.c`` ``gc_info``). ``roboray-sim bench board``
+#: counts what an armed slot leaves (``flight_alloc_bytes_per_slot``, a few
+#: bytes on average; docs/design/board-time.md); this bound is several
+#: times that, so the estimate runs low before the heap does: ~250 kB free
+#: at 32 B a slot lasts a minute of flight before three quarters of it may
+#: be used.
+SLOT_BYTES = 32
+#: At rest (disarmed, or armed and still on the bottom): a collection at
+#: most this often (slots; 1 s), in a slot a flash write of the log stalls
+#: anyway (so it adds no stalled slot), or once half the free heap may be
+#: used (then a planned stall of its own, announced, that costs no dive).
+REST_SLOTS = 100
+
+
+class Collections:
+    """When RoboRay's build collects: at rest, in a slot a flash write
+    stalls anyway; in flight never, unless the heap's estimate is low.
+
+    ``free``: the heap free after a collection (bytes; read at rest, where
+    the walk of ``gc.mem_free()`` costs nothing the dive needs), ``slot``
+    the scheduler's slot then. ``due(slot, resting, flashed)`` says from the
+    slots since then times ``SLOT_BYTES``: 0 (none), 1 (at rest: in a slot
+    the log wrote to flash, ``flashed``, ``REST_SLOTS`` on; or once half the
+    free heap may be used) or 2 (in flight, three quarters may be used: the
+    heap is low, an event the firmware reports). ``done(slot, free, low)``
+    after the collection. Integers only: a call allocates nothing."""
+
+    def __init__(self, free, slot=0):
+        self.free = free
+        self.last = slot
+        #: Collections made, and those made in flight because the estimate was low.
+        self.count = 0
+        self.low = 0
+
+    def due(self, slot, resting, flashed):
+        n = slot - self.last
+        if resting:
+            return 1 if (flashed and n >= REST_SLOTS) or n * SLOT_BYTES >= self.free >> 1 else 0
+        return 2 if n * SLOT_BYTES >= self.free - (self.free >> 2) else 0
+
+    def done(self, slot, free, low):
+        self.last = slot
+        if free >= 0:
+            self.free = free
+        self.count += 1
+        if low:
+            self.low += 1

@@ -100,13 +100,74 @@ def _roboray(code):
     return proc.stdout.strip().splitlines()
 
 
-def test_roboray_build_is_told_apart_and_says_so():
+def test_roboray_build_has_no_collection_task_and_says_so():
     from roboray.tools.micropython import roboray_host
     if not roboray_host.available():
         pytest.skip("RoboRay MicroPython's host build runs on Linux on x86")
     out = _roboray("from roboray.firmware import collector\n"
                    "print(collector.floats_boxed(), v.floats_boxed, 'gc' in v.sched.names)\n"
-                   "print(v.collection_text)\n")
-    assert out[-2] == "False False True"
-    assert out[-1].startswith("RoboRay MicroPython 1.") and out[-1].endswith(": GC every 300 ms")
-    assert len(out[-1]) <= 50
+                   "print(v.collection_text)\n"
+                   "print(v.collections.free)\n")
+    assert out[-3] == "False False False"
+    assert out[-2].startswith("RoboRay MicroPython 1.") and out[-2].endswith(": no GC in flight")
+    assert len(out[-2]) <= 50      # one STATUSTEXT
+    # the heap free after the start-up collection: most of a Pico 2's
+    assert int(out[-1]) > 100000
+
+
+def test_roboray_build_collects_at_rest_and_not_in_flight():
+    # the firmware on RoboRay's host build, its loop run disarmed (at rest:
+    # once half the heap's estimate is used, the free heap read again), then
+    # armed and moving (no collection: the estimate is far from low), then
+    # with the estimate forced low in flight: one collection, told on the
+    # link and in the log
+    from roboray.tools.micropython import roboray_host
+    if not roboray_host.available():
+        pytest.skip("RoboRay MicroPython's host build runs on Linux on x86")
+    out = _roboray("from roboray.firmware import collector\n"
+                   "c = v.collections\n"
+                   "c.free = 200 * collector.SLOT_BYTES\n"
+                   "v.sched.run(250)\n"
+                   "print(c.count, c.low, c.free > 100000)\n"
+                   "v.log.resting = lambda: False\n"
+                   "n = c.count\n"
+                   "v.sched.run(300)\n"
+                   "print(c.count - n, c.low)\n"
+                   "texts = []\n"
+                   "v.link.ep.on_text = texts.append\n"
+                   "c.free = 200 * collector.SLOT_BYTES\n"
+                   "v.sched.run(60)\n"
+                   "print(c.count - n, c.low, texts)\n")
+    assert out[-3] == "1 0 True"
+    assert out[-2] == "0 0"
+    assert out[-1] == "1 1 [b'Heap low: collected in flight']"
+
+
+def test_the_policy_never_collects_in_flight_until_the_heap_is_low():
+    from roboray.firmware import collector
+    free = 4 * collector.REST_SLOTS * collector.SLOT_BYTES    # half of it lasts past REST_SLOTS
+    c = collector.Collections(free, slot=100)
+    low = 100 + (free - free // 4) // collector.SLOT_BYTES      # the first slot the estimate is low
+    # flying (not resting): nothing up to the low mark, flash write or not
+    for slot in (101, 100 + collector.REST_SLOTS, low - 1):
+        assert c.due(slot, False, False) == 0 and c.due(slot, False, True) == 0
+    assert c.due(low, False, False) == 2
+    c.done(low, -1, True)
+    assert (c.count, c.low, c.last, c.free) == (1, 1, low, free)
+    # at rest: in a flash write's slot once REST_SLOTS have passed, else
+    # once half the free heap may be used
+    s = c.last
+    assert c.due(s + collector.REST_SLOTS - 1, True, True) == 0
+    assert c.due(s + collector.REST_SLOTS, True, False) == 0
+    assert c.due(s + collector.REST_SLOTS, True, True) == 1
+    half = s + (free // 2) // collector.SLOT_BYTES
+    assert c.due(half - 1, True, False) == 0 and c.due(half, True, False) == 1
+    c.done(s + 1, 64 * collector.SLOT_BYTES, False)
+    assert c.free == 64 * collector.SLOT_BYTES and c.low == 1
+    assert c.due(s + 1 + 31, True, False) == 0 and c.due(s + 1 + 32, True, False) == 1
+
+
+def test_the_policy_check_allocates_nothing_on_micropython(mp):
+    mp.exec("from roboray.firmware import collector\n"
+            "_c = collector.Collections(300000, 0)\n")
+    assert mp.alloc_bytes("_c.due(50, False, False); _c.due(2000, True, True)") == 0

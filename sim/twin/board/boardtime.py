@@ -81,6 +81,21 @@ AUTO_GC = const(20)
 _MASK = const(0x3FFFFFFF)
 _US_MAX = const(0x1FFFFF)
 _RECORDS = const(512)
+#: On the emulated board the twin's own Python (the emulated peripherals,
+#: the lockstep's frames: a few kB a 20 ms frame) shares the firmware's
+#: heap, which a Pico 2 does not: left there, it filled the heap every few
+#: seconds, so the allocator collected inside the firmware's tasks, and its
+#: garbage between the firmware's blocks made each of the firmware's heap
+#: allocations (its larger call frames) search further. So it is collected
+#: every TWIN_GC_SLOTS slots, inside the exclusion (not charged), while the
+#: firmware's own bytes since its last collection fit what a Pico 2's heap
+#: has free (``BoardTime.fw_budget``); past that the board would have
+#: collected, and the twin leaves the collection to the firmware's
+#: allocator, charged, as on the chip.
+TWIN_GC_SLOTS = const(10)
+#: What the twin keeps live on the emulated board's heap, at most (the
+#: emulated heap is the Pico 2's plus this: ``rp2350_emu.TWIN_HEAP``).
+TWIN_HEAP = 128 * 1024
 #: The clock the model and the calibration refer to (RP2350 default).
 REF_MHZ = 150
 
@@ -142,6 +157,16 @@ class BoardTime:
         #: call, and how deep in their brackets it is (``bracket_emulation``)
         self.emu_alloc = array("i", [0, 0])
         self._gc_task = -1
+        #: the firmware's bytes since its last collection, and what a Pico
+        #: 2's heap has free for them (set as the loop starts; -1: unknown)
+        self.fw_since = 0
+        self.fw_budget = -1
+        #: the twin's collections of its own garbage (TWIN_GC_SLOTS), and
+        #: the slots since the last
+        self.twin_collections = 0
+        self._twin_k = 0
+        #: 1 once the firmware's collector.collect() ran in the current task call
+        self._collected = array("b", [0])
         if source == "emu":
             ps = ps_per_insn if ps_per_insn else 6667
             self._ps = int(ps * REF_MHZ / cpu_mhz + 0.5)
@@ -211,6 +236,11 @@ class BoardTime:
         self._gc_task = self.names.index("gc") if "gc" in self.names else -1
         fns = sched._fns
         emu = self.source == "emu"
+        if emu and self.heap:
+            # the firmware's free heap on a Pico 2, at most: the emulated
+            # heap's free less all the twin may keep (the twin keeps less)
+            self.fw_budget = gc.mem_free() - TWIN_HEAP
+        self.fw_since = 0
         for i in range(len(fns)):
             if emu:
                 fns[i] = self._wrap_emu(i, fns[i])
@@ -223,14 +253,66 @@ class BoardTime:
         # the slot's end: its collection, or none (the application's "gc" task)
         sched._collect = self._wrap_collect(sched._collect or _nothing, sched, emu,
                                             sched._collect is not None)
+        self._wrap_firmware_collect(emu)
+
+    def _wrap_firmware_collect(self, emu):
+        """The collections the firmware makes inside a task
+        (``collector.collect()``: RoboRay's build collects from its log task,
+        at rest or when its heap estimate runs low) timed and recorded as
+        ``GC``, as the "gc" task's are (the slot is a planned stall; the
+        model charges its collection). The original function is called, so
+        the collector's marking order holds (``firmware/collector.py``)."""
+        global _collect_orig
+        collector = sys.modules.get("roboray.firmware.collector")
+        if collector is None:
+            return
+        if _collect_orig is None:
+            _collect_orig = collector.collect
+        orig = _collect_orig
+        rec = self.record
+        bt = self
+        done = self._collected
+        if emu:
+            xb = emuboard.exclude_begin
+            xe = emuboard.exclude_end
+            busy = emuboard.busy_us
+
+            def collect():
+                xb()
+                b0 = busy()
+                xe()
+                orig()
+                xb()
+                rec(GC, (busy() - b0) & _MASK)
+                done[0] = 1
+                xe()
+        else:
+            gc_us = self._gc_us
+
+            def collect():
+                orig()
+                bt.busy = (bt.busy + gc_us) & _MASK
+                rec(GC, gc_us)
+                done[0] = 1
+        collector.collect = collect
 
     def _count(self, i, a0):
         """The heap after task ``i``'s call, which found ``a0`` bytes allocated."""
         d = _mem_alloc() - a0 - self.emu_alloc[0]
-        if i == self._gc_task:
+        c = self._collected
+        if i == self._gc_task or c[0]:
+            # the firmware collected (its "gc" task, or collector.collect()
+            # inside the call: recorded as GC)
+            c[0] = 0
+            self.fw_since = 0
+            if i != self._gc_task and d > 0:
+                self.alloc[0] += d
             return
         if d < 0:
+            # a collection inside the call the firmware did not ask for:
+            # the allocator's, on a full heap
             self.record(AUTO_GC, 0)
+            self.fw_since = 0
         else:
             self.alloc[0] += d
 
@@ -301,11 +383,27 @@ class BoardTime:
         return run
 
     def _end_slot(self):
+        if self.source == "emu":
+            self._twin_collect()
         if not self.heap:
             return
         a = self.alloc
         self.record(ALLOC, a[0])
+        self.fw_since += a[0]
         a[0] = 0
+
+    def _twin_collect(self):
+        """The twin's garbage off the emulated heap (inside the exclusion;
+        see TWIN_GC_SLOTS), while the firmware's own fits a Pico 2's."""
+        k = self._twin_k + 1
+        if k < TWIN_GC_SLOTS:
+            self._twin_k = k
+            return
+        self._twin_k = 0
+        if self.fw_budget >= 0 and self.fw_since >= self.fw_budget:
+            return
+        gc.collect()
+        self.twin_collections += 1
 
     def _wrap_collect(self, collect, sched, emu, collects):
         rec = self.record
@@ -384,6 +482,10 @@ def _nothing():
     pass
 
 
+# collector.collect as the firmware defined it (BoardTime._wrap_firmware_collect)
+_collect_orig = None
+
+
 def _no_heap():
     return 0
 
@@ -392,6 +494,115 @@ def _vehicle_modes():
     app = sys.modules.get("roboray.firmware.app")
     v = app.vehicle if app is not None else None
     return v.modes if v is not None else None
+
+
+# The heap counted inside the emulation's brackets (``bracket_emulation``):
+# set there, read by the inner calls below.
+_ea = array("i", [0, 0])
+_ma = _mem_alloc
+
+
+# The inner calls: the heap read around the emulated peripheral's own call,
+# inside the bracket. A bracket's wrapper keeps no more locals than its
+# arguments and what it closes over (the function, the bracket's two
+# natives): MicroPython gives a call whose locals and stack need more than
+# 11 words a frame on the heap (``VM_MAX_STATE_ON_STACK``, py/objfun.c),
+# and a wrapper that did (the heap reads in the wrapper itself, commit
+# c31bba8) allocated one before its bracket opened and freed it after it
+# closed, both charged to the firmware: 500-700 instructions a call, and on
+# a heap the twin's garbage fragments a search of the allocation table from
+# the lowest freed block, 80,000 (counted on the emulated board: bracketed
+# calls in a loop, old wrapper against new). These frames are allocated and
+# freed inside the bracket.
+def _in0(f):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f()
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
+
+
+def _in1(f, a):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f(a)
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
+
+
+def _in2(f, a, b):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f(a, b)
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
+
+
+def _in3(f, a, b, c):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f(a, b, c)
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
+
+
+def _in4(f, a, b, c, d):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f(a, b, c, d)
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
+
+
+def _in5(f, a, b, c, d, e):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f(a, b, c, d, e)
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
+
+
+def _in_any(f, a, kw):
+    ea = _ea
+    n = ea[1]
+    ea[1] = n + 1
+    a0 = _ma()
+    try:
+        return f(*a, **kw)
+    finally:
+        ea[1] = n
+        if n == 0:
+            ea[0] += _ma() - a0
 
 
 def bracket_emulation(machine, bt):
@@ -404,118 +615,77 @@ def bracket_emulation(machine, bt):
     the bracket opens, so the call would be charged for the twin's garbage
     (and the first allocation after a collection searches the heap).
 
-    Inside each bracket the heap is read too: what the emulated peripherals
-    allocate (``bt.emu_alloc[0]``, the outermost bracket's only: they nest)
-    is the twin's garbage, not the firmware's, and is left out of the
-    task's bytes (``BoardTime._count``); not when the heap is not counted
-    (``BoardTime.heap``: each reading walks the heap)."""
+    Inside each bracket the heap is read too (the inner calls above): what
+    the emulated peripherals allocate (``bt.emu_alloc[0]``, the outermost
+    bracket's only: they nest) is the twin's garbage, not the firmware's,
+    and is left out of the task's bytes (``BoardTime._count``); not when the
+    heap is not counted (``BoardTime.heap``: each reading walks the heap)."""
+    global _ea, _ma
     xb = emuboard.exclude_begin
     xe = emuboard.exclude_end
-    ea = bt.emu_alloc
-    ma = _mem_alloc if bt.heap else _no_heap
+    _ea = bt.emu_alloc
+    _ma = _mem_alloc if bt.heap else _no_heap
 
     def any_args(f):   # set-up calls (constructors' init): rare
         def call(*a, **kw):
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f(*a, **kw)
+                return _in_any(f, a, kw)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
     def f0(f):
         def call():
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f()
+                return _in0(f)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
     def f1(f, default):
         def call(a=default):
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f(a)
+                return _in1(f, a)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m0(f):
         def call(self):
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f(self)
+                return _in1(f, self)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m1(f, default):
         def call(self, a=default):
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f(self, a)
+                return _in2(f, self, a)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m2(f, default):
         def call(self, a, b=default):
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f(self, a, b)
+                return _in3(f, self, a, b)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
     def m3(f, d1, d2):
         def call(self, a, b=d1, c=d2):
             xb()
-            n = ea[1]
-            ea[1] = n + 1
-            a0 = ma()
             try:
-                return f(self, a, b, c)
+                return _in4(f, self, a, b, c)
             finally:
-                ea[1] = n
-                if n == 0:
-                    ea[0] += ma() - a0
                 xe()
         return call
 
@@ -561,89 +731,56 @@ def bracket_emulation(machine, bt):
     read_b = I2C.readfrom
     write = I2C.writeto
 
-    # addr + register, then addr again and the data (a repeated start)
+    # addr + register, then addr again and the data (a repeated start).
+    # These wrappers have more arguments than a frame on the C stack holds
+    # (see _in0): their frames are on the heap, as they were before the
+    # heap was counted.
     def readfrom_mem_into(self, addr, memaddr, buf, addrsize=8):
         xb()
-        n = ea[1]
-        ea[1] = n + 1
-        a0 = ma()
         try:
             charge(i2c_us(self.freq, 3 + len(buf)))
-            read_mem(self, addr, memaddr, buf, addrsize)
+            _in5(read_mem, self, addr, memaddr, buf, addrsize)
         finally:
-            ea[1] = n
-            if n == 0:
-                ea[0] += ma() - a0
             xe()
 
     def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
         xb()
-        n = ea[1]
-        ea[1] = n + 1
-        a0 = ma()
         try:
             charge(i2c_us(self.freq, 3 + nbytes))
-            return read_mem_b(self, addr, memaddr, nbytes, addrsize)
+            return _in5(read_mem_b, self, addr, memaddr, nbytes, addrsize)
         finally:
-            ea[1] = n
-            if n == 0:
-                ea[0] += ma() - a0
             xe()
 
     def writeto_mem(self, addr, memaddr, buf, addrsize=8):
         xb()
-        n = ea[1]
-        ea[1] = n + 1
-        a0 = ma()
         try:
             charge(i2c_us(self.freq, 2 + len(buf)))
-            write_mem(self, addr, memaddr, buf, addrsize)
+            _in5(write_mem, self, addr, memaddr, buf, addrsize)
         finally:
-            ea[1] = n
-            if n == 0:
-                ea[0] += ma() - a0
             xe()
 
     def readfrom_into(self, addr, buf, stop=True):
         xb()
-        n = ea[1]
-        ea[1] = n + 1
-        a0 = ma()
         try:
             charge(i2c_us(self.freq, 1 + len(buf)))
-            read_into(self, addr, buf, stop)
+            _in4(read_into, self, addr, buf, stop)
         finally:
-            ea[1] = n
-            if n == 0:
-                ea[0] += ma() - a0
             xe()
 
     def readfrom(self, addr, nbytes, stop=True):
         xb()
-        n = ea[1]
-        ea[1] = n + 1
-        a0 = ma()
         try:
             charge(i2c_us(self.freq, 1 + nbytes))
-            return read_b(self, addr, nbytes, stop)
+            return _in4(read_b, self, addr, nbytes, stop)
         finally:
-            ea[1] = n
-            if n == 0:
-                ea[0] += ma() - a0
             xe()
 
     def writeto(self, addr, buf, stop=True):
         xb()
-        n = ea[1]
-        ea[1] = n + 1
-        a0 = ma()
         try:
             charge(i2c_us(self.freq, 1 + len(buf)))
-            return write(self, addr, buf, stop)
+            return _in4(write, self, addr, buf, stop)
         finally:
-            ea[1] = n
-            if n == 0:
-                ea[0] += ma() - a0
             xe()
 
     I2C.readfrom_mem_into = readfrom_mem_into
