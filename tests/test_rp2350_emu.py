@@ -172,6 +172,29 @@ def test_files_and_os(tmp_path):
     assert not (tmp_path / "c.bin").exists()
 
 
+def test_folders_through_the_host_shell(tmp_path):
+    # the flight log keeps its files in /logs: os.mkdir and os.listdir of
+    # host folders (semihosting's SYS_SYSTEM), a write of part of a buffer
+    # (write(buf, off, n)), statvfs as a Pico 2's 3 MB file system
+    out = ok("import os, errno\n"
+             "os.mkdir('logs')\n"
+             "try:\n    os.mkdir('logs')\nexcept OSError as e:\n    print(e.errno == errno.EEXIST)\n"
+             "f = open('logs/00000001.BIN', 'wb'); f.write(b'abc'); f.close()\n"
+             "f = open('logs/00000001.BIN', 'ab'); f.write(bytearray(b'0123456789'), 2, 3); f.close()\n"
+             "print(os.listdir('logs'), os.stat('logs/00000001.BIN')[6], sorted(os.listdir('/')) == sorted(os.listdir()))\n"
+             "print('logs' in os.listdir(''), os.statvfs('logs')[:4])\n"
+             "for bad in (lambda: os.listdir('nothing'), lambda: os.listdir('logs/00000001.BIN'), lambda: os.mkdir(\"a'b\")):\n"
+             "    try:\n        bad()\n    except OSError as e:\n        print(e.errno)\n",
+             tmp_path)
+    assert out.split("\n") == [
+        "True",
+        "['00000001.BIN'] 6 True",
+        "True (4096, 4096, 768, 768)",
+        "2", "20", "22", ""]
+    assert (tmp_path / "logs" / "00000001.BIN").read_bytes() == b"abc234"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["logs", "main_rp2350_emu.py"]   # no listing left
+
+
 def test_pipelink_over_inherited_pipes(tmp_path):
     """The twin's hostlink over two pipes QEMU inherited (``/dev/fd/N``),
     answers in several parts (short reads)."""

@@ -541,11 +541,107 @@ static mp_obj_t os_unsupported(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(os_unsupported_obj, 0, 2, os_unsupported);
 
-// listdir: the ROMFS image only (semihosting has no directories).
+// Host folders. Semihosting has no directory calls; its SYS_SYSTEM runs a
+// command in the host's shell (QEMU: system(3), in QEMU's working
+// directory, the board's root), which makes a folder and lists one into a
+// file the board then reads. The flight log keeps its files in /logs
+// (firmware/flightlog/files.py). Paths are single-quoted: one holding a
+// quote is refused.
+#define LISTING ".rp2350-emu-listdir"
+
+static void host_command(vstr_t *cmd, const char *head, const char *path, const char *tail) {
+    if (strchr(path, '\'') != NULL || path[0] == '\0') {
+        mp_raise_OSError(MP_EINVAL);
+    }
+    vstr_init(cmd, 64);
+    vstr_add_str(cmd, head);
+    vstr_add_str(cmd, " -- '");
+    vstr_add_str(cmd, path);
+    vstr_add_str(cmd, "'");
+    vstr_add_str(cmd, tail);
+    vstr_null_terminated_str(cmd);   // (SYS_SYSTEM reads the length and a NUL after it)
+}
+
+static mp_obj_t os_mkdir(mp_obj_t path_in) {
+    const char *path = mp_obj_str_get_str(path_in);
+    if (romfs_rel(path) != NULL) {
+        mp_raise_OSError(MP_EROFS);
+    }
+    int err = 0;
+    if (host_kind(path, &err) != 0) {
+        mp_raise_OSError(MP_EEXIST);
+    }
+    vstr_t cmd;
+    host_command(&cmd, "mkdir", path, " 2>/dev/null");
+    int status = sh_system(cmd.buf, cmd.len);
+    vstr_clear(&cmd);
+    if (status != 0) {
+        mp_raise_OSError(MP_EIO);
+    }
+    return mp_const_none;
+}
+static MP_DEFINE_CONST_FUN_OBJ_1(os_mkdir_obj, os_mkdir);
+
+static mp_obj_t host_listdir(const char *path) {
+    int err = 0;
+    int kind = host_kind(path, &err);
+    if (kind != 2) {
+        mp_raise_OSError(kind == 1 ? MP_ENOTDIR : MP_ENOENT);
+    }
+    vstr_t cmd;
+    host_command(&cmd, "ls -1A", path, " > " LISTING " 2>/dev/null");
+    int status = sh_system(cmd.buf, cmd.len);
+    vstr_clear(&cmd);
+    int h = sh_open(LISTING, strlen(LISTING), SH_MODE_R + 1);
+    if (status != 0 || h < 0) {
+        if (h >= 0) {
+            sh_close(h);
+        }
+        mp_raise_OSError(MP_EIO);
+    }
+    int len = sh_flen(h);
+    vstr_t text;
+    vstr_init_len(&text, len > 0 ? len : 0);
+    int got = len > 0 ? sh_read_some(h, text.buf, len) : 0;
+    sh_close(h);
+    sh_remove(LISTING, strlen(LISTING));
+    mp_obj_t list = mp_obj_new_list(0, NULL);
+    const char *p = text.buf, *end = text.buf + (got > 0 ? got : 0);
+    while (p < end) {
+        const char *nl = memchr(p, '\n', end - p);
+        const char *stop = nl != NULL ? nl : end;
+        // (the listing's own file, when the board lists its root)
+        if (stop > p && !((size_t)(stop - p) == strlen(LISTING) && memcmp(p, LISTING, stop - p) == 0)) {
+            mp_obj_list_append(list, mp_obj_new_str(p, stop - p));
+        }
+        p = stop + 1;
+    }
+    vstr_clear(&text);
+    return list;
+}
+
+// statvfs of the board's flash: a Pico 2's file system (littlefs, 4 kB
+// blocks, 3 MB: MICROPY_HW_FLASH_STORAGE_BYTES of the rp2 port's
+// RPI_PICO2), reported all free, since the host's folder is not a flash
+// that fills.
+static mp_obj_t os_statvfs(mp_obj_t path_in) {
+    (void)path_in;
+    mp_obj_tuple_t *t = MP_OBJ_TO_PTR(mp_obj_new_tuple(10, NULL));
+    static const mp_int_t v[10] = {4096, 4096, 768, 768, 768, 0, 0, 0, 0, 255};
+    for (int i = 0; i < 10; i++) {
+        t->items[i] = MP_OBJ_NEW_SMALL_INT(v[i]);
+    }
+    return MP_OBJ_FROM_PTR(t);
+}
+static MP_DEFINE_CONST_FUN_OBJ_1(os_statvfs_obj, os_statvfs);
+
+// listdir: the ROMFS image, or a host folder.
 static mp_obj_t os_listdir(size_t n_args, const mp_obj_t *args) {
-    const char *rel = n_args ? romfs_rel(mp_obj_str_get_str(args[0])) : NULL;
+    const char *path = n_args ? mp_obj_str_get_str(args[0]) : "";
+    const char *rel = romfs_rel(path);
     if (rel == NULL) {
-        mp_raise_OSError(38);  // ENOSYS
+        // the board's root is QEMU's working directory
+        return host_listdir(path[0] && strcmp(path, "/") != 0 ? path : ".");
     }
     romfs_entry_t e;
     int kind = romfs_lookup(rel, &e);
@@ -623,10 +719,10 @@ static const mp_rom_map_elem_t os_globals_table[] = {
     { MP_ROM_QSTR(MP_QSTR_rename), MP_ROM_PTR(&os_rename_obj) },
     { MP_ROM_QSTR(MP_QSTR_listdir), MP_ROM_PTR(&os_listdir_obj) },
     { MP_ROM_QSTR(MP_QSTR_ilistdir), MP_ROM_PTR(&os_unsupported_obj) },
-    { MP_ROM_QSTR(MP_QSTR_mkdir), MP_ROM_PTR(&os_unsupported_obj) },
+    { MP_ROM_QSTR(MP_QSTR_mkdir), MP_ROM_PTR(&os_mkdir_obj) },
     { MP_ROM_QSTR(MP_QSTR_rmdir), MP_ROM_PTR(&os_unsupported_obj) },
     { MP_ROM_QSTR(MP_QSTR_chdir), MP_ROM_PTR(&os_unsupported_obj) },
-    { MP_ROM_QSTR(MP_QSTR_statvfs), MP_ROM_PTR(&os_unsupported_obj) },
+    { MP_ROM_QSTR(MP_QSTR_statvfs), MP_ROM_PTR(&os_statvfs_obj) },
     { MP_ROM_QSTR(MP_QSTR_getcwd), MP_ROM_PTR(&os_getcwd_obj) },
     { MP_ROM_QSTR(MP_QSTR_sync), MP_ROM_PTR(&os_sync_obj) },
     { MP_ROM_QSTR(MP_QSTR_uname), MP_ROM_PTR(&os_uname_obj) },

@@ -12,6 +12,7 @@
 #define SYS_REMOVE          (0x0e)
 #define SYS_RENAME          (0x0f)
 #define SYS_TIME            (0x11)
+#define SYS_SYSTEM          (0x12)
 #define SYS_ERRNO           (0x13)
 #define SYS_GET_CMDLINE     (0x15)
 #define SYS_EXIT            (0x18)
@@ -73,6 +74,11 @@ int sh_flen(int h) {
 int sh_remove(const char *name, size_t len) {
     uint32_t a[2] = {(uint32_t)name, (uint32_t)len};
     return sh_call(SYS_REMOVE, a);
+}
+
+int sh_system(const char *cmd, size_t len) {
+    uint32_t a[2] = {(uint32_t)cmd, (uint32_t)len};
+    return sh_call(SYS_SYSTEM, a);
 }
 
 int sh_rename(const char *from, size_t from_len, const char *to, size_t to_len) {

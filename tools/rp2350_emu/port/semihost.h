@@ -21,6 +21,7 @@ int sh_flen(int h);                                        // length, or -1
 int sh_remove(const char *name, size_t len);
 int sh_rename(const char *from, size_t from_len, const char *to, size_t to_len);
 int sh_errno(void);
+int sh_system(const char *cmd, size_t len);                // the host shell's exit status
 int sh_get_cmdline(char *buf, size_t len);
 uint32_t sh_time(void);
 void sh_write0(const char *s);
