@@ -23,11 +23,15 @@ Pico 2 timings (``tools/rp2350_emu/calibration.py``):
   (``--build``: ``roboray``, RoboRay's MicroPython, the default, or
   ``stock``) and its ``obj_repr`` (``C``: floats in the object word, ``A``:
   boxed on the heap);
-- ``flight_collections``: collections in the armed slots, planned (the
-  "gc" task) and made by the allocator on a full heap;
+- ``flight_collections``: collections in the armed slots: the stock
+  build's "gc" task, the firmware's ``collector.collect()`` inside a task
+  (RoboRay's build: at rest, or on a low heap estimate) and the
+  allocator's on a full heap;
   ``flight_alloc_bytes_per_slot``: the bytes the tasks of an armed slot
   allocate, mean over the armed slots (``sim/twin/board/boardtime.py``
-  counts them around each task call, the emulated peripherals included);
+  counts them around each task call, the emulated peripherals' own bytes
+  left out; the twin's garbage is collected off the board's time while
+  the firmware's bytes fit a Pico 2's free heap);
 - ``calibration``: the published figures, their sources, the cost of an
   instruction and its uncertainty, counted on the stock build (the
   published timings were all measured on stock builds) and applied to the
