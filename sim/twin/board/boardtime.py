@@ -91,7 +91,10 @@ _RECORDS = const(512)
 #: firmware's own bytes since its last collection fit what a Pico 2's heap
 #: has free (``BoardTime.fw_budget``); past that the board would have
 #: collected, and the twin leaves the collection to the firmware's
-#: allocator, charged, as on the chip.
+#: allocator, charged, as on the chip. The firmware's bytes are known only
+#: where the heap is counted (``heap``, ``bench board``: ~3 B an armed
+#: slot against ~250 kB free); a twin that does not count them collects
+#: its garbage every TWIN_GC_SLOTS regardless.
 TWIN_GC_SLOTS = const(10)
 #: What the twin keeps live on the emulated board's heap, at most (the
 #: emulated heap is the Pico 2's plus this: ``rp2350_emu.TWIN_HEAP``).
