@@ -105,3 +105,10 @@ def test_a_target_landing_with_the_board_code_in_romfs():
     # heap; docs/design/board-time.md), with no collection in flight
     assert r["overruns"] == 0 and r["board_time"]["slot_max_ms_no_stall"] < 10.0
     assert "gc" not in r["board_time"]["tasks"]
+
+
+def test_the_twins_reserve_on_the_board_heap_is_the_emulated_boards():
+    # boardtime's budget for the firmware's garbage (the emulated heap's
+    # free less all the twin may keep) assumes the runner's reserve
+    from roboray.sim.twin.board import boardtime
+    assert boardtime.TWIN_HEAP == rp2350_emu.TWIN_HEAP
