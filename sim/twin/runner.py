@@ -493,7 +493,7 @@ class RoboRayUnixBoard(MicroPythonUnixBoard):
         from roboray.tools.micropython import rp2350_emu, roboray_host
 
         env = dict(os.environ, MICROPYPATH=str(self.lib))
-        heap = rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP
+        heap = rp2350_emu.pico2_heap("roboray") + rp2350_emu.TWIN_HEAP   # the log's RAM is out of it
         return roboray_host.command("-X", "heapsize=%d" % heap, "-c", self._boot_code(fd_in, fd_out, config)), env
 
 
@@ -554,7 +554,7 @@ class RP2350EmuBoard(MicroPythonUnixBoard):
                 "lockstep.run(**json.loads(%r))\n" % (fd_in, fd_out, twin.PRELUDE, json.dumps(config)))
         main = self.dir / "boot_twin.py"
         main.write_text(code)
-        return rp2350_emu.command(main.name, heap_bytes=rp2350_emu.PICO2_HEAP + rp2350_emu.TWIN_HEAP,
+        return rp2350_emu.command(main.name, heap_bytes=rp2350_emu.pico2_heap(self.build) + rp2350_emu.TWIN_HEAP,
                                   path=() if self.romfs else (self.lib.relative_to(self.dir).as_posix(),),
                                   romfs=self.romfs, build=self.build), None
 

@@ -66,14 +66,18 @@ PICO2_HEAP_SOURCE = (
     "(tools/rp2350_emu/README.md)")
 
 #: Extra heap for the twin's own Python (emulated peripherals, virtual
-#: clock, lockstep), which a real board does not carry. On RoboRay's builds
-#: a Pico 2's GC heap is ``log_ram_bytes()`` smaller than ``PICO2_HEAP``
-#: (its linker puts the flight log's RAM first), the ring out of it; the
-#: twin keeps ``PICO2_HEAP``: at the smaller heap, the life after a
-#: watchdog reset ran out of heap at start (target-landing, watchdog@20:
-#: MemoryError in collector.prepare), the last life leaving ~40 kB live
-#: in the twin's one process where a board's reset clears its RAM.
+#: clock, lockstep), which a real board does not carry.
 TWIN_HEAP = 128 * 1024
+
+
+def pico2_heap(build: str = "roboray") -> int:
+    """A Pico 2's GC heap on ``build``: ``PICO2_HEAP``, less the flight
+    log's RAM on RoboRay's builds, whose linker puts it before the heap
+    (the ring it holds is then out of the heap: the firmware's free heap is
+    the same)."""
+    if build not in BUILDS:
+        raise ValueError("build %r: one of %s" % (build, ", ".join(BUILDS)))
+    return PICO2_HEAP - (log_ram_bytes() if build == "roboray" else 0)
 
 
 def log_ram_bytes() -> int:
@@ -292,6 +296,6 @@ def _compile_tree(tree: str) -> None:
 
 
 __all__ = ["IMAGE", "IMAGES", "BUILDS", "interpreter_build", "PACKAGE", "PICO2_HEAP", "PICO2_HEAP_SOURCE", "TWIN_HEAP",
-           "log_ram_bytes", "ICOUNT_SHIFT",
+           "log_ram_bytes", "pico2_heap", "ICOUNT_SHIFT",
            "ROMFS_BYTES", "ROMFS_ADDR", "available", "require", "command", "run", "version", "install_lib",
            "make_romfs"]

@@ -274,6 +274,11 @@ class Lockstep:
             v = None
             if self.bt is not None:
                 self.bt._modes = None
+            # the collector's chain (collector.prepare) links every instance
+            # of the last life: kept, it held ~40 kB of it into the next, which
+            # then ran out of a Pico 2's heap at start
+            from roboray.firmware import collector
+            collector._first = None
             gc.collect()
 
     def _count_life(self, v):
