@@ -204,7 +204,7 @@ def test_the_logger_runs_on_micropython_and_a_step_allocates_only_floats(micropy
     for n, what in ((4, "ATT"), (17, "IMU, RCOU, WING"), (13, "IMU, EST")):
         sizes[what] = micropython.alloc_bytes("__go(True, 0.3)", setup="__log._n = %d" % (n - 2))
     assert all(v % 16 == 0 for v in sizes.values()), sizes
-    assert max(sizes.values()) <= 45 * 16, sizes
+    assert max(sizes.values()) <= 62 * 16, sizes    # (17 of them the stillness filter's: logger.STILL_TAU_S)
     head = bytes(micropython.eval("list(open('/lgt/logs/00000001.BIN', 'rb').read(3))"))
     assert head == bytes([0xA3, 0x95, 0x80])
 

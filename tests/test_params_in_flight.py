@@ -52,8 +52,10 @@ def test_sets_in_the_descent_take_effect_at_once_and_are_saved_once_at_rest(tmp_
     assert len(echoed) == 200 and set(echoed) == {"5", "6"}     # each one answered with a PARAM_VALUE
     read = next(a for a in r["operator"] if a["action"] == "param_read")
     assert read["result"] == "6"                                # the last set is in force in the dive
-    # no save stalled the dive: the same planned stalls as without the sets
-    assert r["planned_stalls"] == base["planned_stalls"], (r["planned_stalls"], base["planned_stalls"])
+    # no save stalled the dive: the same planned stalls as without the sets (within one: the run
+    # ends a fixed time after landing, while the log goes to flash chunk by chunk, and the save at
+    # rest may take one chunk's place; a save in the descent would add one a set, 200 here)
+    assert abs(r["planned_stalls"] - base["planned_stalls"]) <= 1, (r["planned_stalls"], base["planned_stalls"])
     assert r["landing_error_m"] < 0.05, r["landing_error_m"]
     notices = [t for t in r["statustext"] if t[2] == "Params: saved once disarmed or at rest"]
     assert len(notices) == 1 and 15.0 <= notices[0][0] < 16.0

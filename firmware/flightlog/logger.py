@@ -139,6 +139,19 @@ STILL_MPS = 0.05
 REST_DEPTH_M = 0.5             # armed and still deeper than this: on the bottom
 _NOT_STILL = -0.05             # -STILL_MPS, made once (a negation boxes a float each time)
 STILL_S = 3
+#: The stillness test reads the estimator's speeds through a first-order
+#: low-pass of STILL_TAU_S (alpha = 0.02 s / tau): resting on the bottom,
+#: the depth sensor's noise (+-20 Pa, 2 mm) put single samples of the
+#: vertical speed past STILL_MPS every few seconds, and each one restarted
+#: the 3 s of stillness and stopped the flush (the emulated RP2350 after
+#: target-landing: landed, moving, landed, ... every 3-5 s, its log never
+#: reaching flash). A speed past MOVING_MPS on the raw estimate (twice
+#: the noise's worst) ends stillness at once: a release or a lift is not
+#: taken for rest while the filter catches up.
+STILL_TAU_S = 0.25
+_STILL_ALPHA = 0.08            # 0.02 s / STILL_TAU_S
+MOVING_MPS = 0.1
+_NOT_MOVING = -0.1             # -MOVING_MPS, made once
 _CALL_HZ = const(50)
 _STILL_CALLS = const(150)      # STILL_S at 50 Hz
 _THIN_FRACTION = const(4)      # thin out below a quarter free
@@ -224,6 +237,7 @@ class FlightLog:
         self.clock = df.Clock()
         self._last_us = ticks_us()
         self._euler = array("f", [0.0, 0.0, 0.0])
+        self._v_still = array("f", [0.0, 0.0, 0.0])   # the speeds the stillness test reads (STILL_TAU_S)
         self._n = 0
         self._mode = -1
         self._still = 0
@@ -566,11 +580,19 @@ class FlightLog:
         t = self.t
         # still: every speed under STILL_MPS for STILL_S
         v = t.vel_ned
-        if _NOT_STILL < v[0] < STILL_MPS and _NOT_STILL < v[1] < STILL_MPS and _NOT_STILL < v[2] < STILL_MPS:
+        lp = self._v_still
+        lp[0] += _STILL_ALPHA * (v[0] - lp[0])
+        lp[1] += _STILL_ALPHA * (v[1] - lp[1])
+        lp[2] += _STILL_ALPHA * (v[2] - lp[2])
+        if (_NOT_STILL < lp[0] < STILL_MPS and _NOT_STILL < lp[1] < STILL_MPS and _NOT_STILL < lp[2] < STILL_MPS
+                and _NOT_MOVING < v[0] < MOVING_MPS and _NOT_MOVING < v[1] < MOVING_MPS
+                and _NOT_MOVING < v[2] < MOVING_MPS):
             if self._still < _STILL_CALLS:
                 self._still += 1
         else:
             self._still = 0
+            if lp[0] != lp[0] or lp[1] != lp[1] or lp[2] != lp[2]:
+                lp[0] = lp[1] = lp[2] = 0.0   # a NaN would hold the filter for ever: start again
         # armed, only resting on the bottom is harmless: still at the
         # surface, the vehicle may be let go any moment
         resting = self._still >= _STILL_CALLS and (not armed or t.env[0] >= REST_DEPTH_M)
