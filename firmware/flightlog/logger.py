@@ -9,8 +9,8 @@ Why RAM first: writing the Pico 2's flash suspends execution from it, and
 littlefs erases a 4 kB sector (45 ms) for each new block it fills, so an
 append in a flight slot would be a 50 ms stall. Records therefore go to
 flash only while the vehicle is **disarmed**, or armed and **resting on
-the bottom** (the estimator's speed under ``STILL_MPS`` on every axis for
-``STILL_S``, deeper than ``REST_DEPTH_M``: armed at the surface it may be
+the bottom** (the estimator's speed, low-passed over ``STILL_TAU_S``, under
+``STILL_MPS`` on every axis for ``STILL_S``, deeper than ``REST_DEPTH_M``: armed at the surface it may be
 let go at any moment), one chunk of at most
 ``CHUNK`` bytes every ``FLUSH_EVERY`` calls, each announced to the
 scheduler as the planned stall it is (``expect_delay``, the twin charges
