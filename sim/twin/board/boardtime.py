@@ -88,11 +88,11 @@ _RECORDS = const(512)
 #: garbage between the firmware's blocks made each of the firmware's heap
 #: allocations (its larger call frames) search further: collected every 10
 #: slots, bench board's slot p99 / max without flash saves 7.45 / 8.39 ms,
-#: every slot 7.00 / 7.63 (nav mean 2682 -> 2599 us), but then the emulated
-#: board's kept-log dive (tests/test_flightlog_kept_twin.py) flushed its
-#: log only to 28.1 s of a dive it must keep past 30 s (cause not found).
-#: So it is collected every TWIN_GC_SLOTS slots, inside the exclusion (not
-#: charged), while the
+#: every slot 7.00 / 7.63 (nav mean 2682 -> 2599 us). (The emulated
+#: board's kept-log dive that flushed only to 28.1 s with it was the
+#: logger's stillness flapping at rest, since fixed: firmware/flightlog/
+#: logger.py STILL_TAU_S.) So it is collected every TWIN_GC_SLOTS slots,
+#: inside the exclusion (not charged), while the
 #: firmware's own bytes since its last collection fit what a Pico 2's heap
 #: has free (``BoardTime.fw_budget``); past that the board would have
 #: collected, and the twin leaves the collection to the firmware's
@@ -100,7 +100,7 @@ _RECORDS = const(512)
 #: where the heap is counted (``heap``, ``bench board``: ~3 B an armed
 #: slot against ~250 kB free); a twin that does not count them collects
 #: its garbage every TWIN_GC_SLOTS regardless.
-TWIN_GC_SLOTS = const(10)
+TWIN_GC_SLOTS = const(1)
 #: What the twin keeps live on the emulated board's heap, at most (the
 #: emulated heap is the Pico 2's plus this: ``rp2350_emu.TWIN_HEAP``).
 TWIN_HEAP = 128 * 1024
