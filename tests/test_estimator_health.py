@@ -98,8 +98,30 @@ def test_a_silent_imu_is_seen_by_check(scenario):
     last = p.calls[int(STOP_S * 100) - 1][-1][1]
     assert est.check((last + 40000) & TICKS_MAX) & H.IMU_OK
     assert not est.check((last + 60000) & TICKS_MAX) & H.IMU_OK
-    assert est.status[H.STATUS_VALID] == 0
     assert est.check((last + 60000) & TICKS_MAX) == est.status[H.STATUS_HEALTH]
+    # the attitude held over a planned stall's silence (a flash save: up to
+    # 150 ms, and the read that empties the overflowed FIFO) is still valid ...
+    assert est.check((last + 240000) & TICKS_MAX) & H.ATTITUDE_VALID
+    assert est.status[H.STATUS_VALID] == 1
+    # ... not past it
+    assert not est.check((last + 260000) & TICKS_MAX) & H.ATTITUDE_VALID
+    assert est.status[H.STATUS_VALID] == 0
+
+
+def test_the_imu_back_after_a_stall_raises_its_flags_at_once(scenario):
+    # issue: a log flush at rest (110 ms) left IMU_OK down until the next
+    # 10 Hz housekeeping, and with it the attitude: the operator's mode
+    # change on the bottom was refused "no attitude estimate" now and then
+    truth, p = scenario
+    stop = int(STOP_S * 100)
+    est, status, _ = _run(p, p.calls, stop)
+    last = p.calls[stop - 1][-1][1]
+    assert not est.check((last + 160000) & TICKS_MAX) & H.IMU_OK
+    for k in range(stop + 17, stop + 20):     # the IMU's next samples, after the stall
+        for call in p.calls[k]:
+            if call[0] == "i":
+                est.imu(*call[1:])
+                assert est.status[H.STATUS_HEALTH] & H.IMU_OK and est.status[H.STATUS_VALID] == 1
 
 
 def test_flight_keeps_every_flag_up(scenario):

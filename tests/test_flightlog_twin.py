@@ -23,6 +23,22 @@ class Cut(Exception):
     """The download stopped by hand (a Ctrl-C, a lost link) after some bytes."""
 
 
+def _stop_after(done: threading.Event, seconds: float):
+    """The twin's ``on_frame``: the run ends ``seconds`` of simulated time
+    after the ground is done (the board prepares the next dive's log on
+    flash within a second of an erase: nothing the ground can list)."""
+    at: list = []
+
+    def on_frame(twin) -> None:
+        if done.is_set():
+            if not at:
+                at.append(twin.world.t + seconds)
+            elif twin.world.t >= at[0]:
+                twin.stop()
+
+    return on_frame
+
+
 def test_a_dive_log_is_downloaded_over_the_radio_resumed_after_a_cut_and_erased(tmp_path):
     got: dict = {}
     done = threading.Event()
@@ -70,9 +86,9 @@ def test_a_dive_log_is_downloaded_over_the_radio_resumed_after_a_cut_and_erased(
 
     # a drop in 1 m of water: on the bottom ~3 s after the release at ~9.5 s;
     # the operator disarms there at 16 s
-    twin = Twin(Options(scenario="bottom-rest", radio="pty", speedup=1.0, duration=60.0,
+    twin = Twin(Options(scenario="bottom-rest", radio="pty", speedup=2.0, duration=60.0,
                         operator=[Action(16.0, "disarm")], board_fs=str(tmp_path / "board")),
-                on_radio=on_radio)
+                on_radio=on_radio, on_frame=_stop_after(done, 3.0))
     twin.run()
     assert done.wait(30)
     assert "error" not in got, got["error"]
@@ -167,9 +183,9 @@ def test_a_log_listed_right_after_the_disarm_downloads_to_its_listed_size(tmp_pa
 
         threading.Thread(target=ground, daemon=True).start()
 
-    twin = Twin(Options(scenario="bottom-rest", radio="pty", speedup=1.0, duration=40.0,
+    twin = Twin(Options(scenario="bottom-rest", radio="pty", speedup=2.0, duration=40.0,
                         operator=[Action(16.0, "disarm")], board_fs=str(tmp_path / "board")),
-                on_radio=on_radio)
+                on_radio=on_radio, on_frame=lambda twin: done.is_set() and twin.stop())
     twin.run()
     assert done.wait(30)
     assert "error" not in got, got["error"]

@@ -53,10 +53,10 @@ def test_mavproxy_modes_arming_parameters_mission_and_the_on_board_log(tmp_path)
                 report["arm"] = _expect(mp, "COMPONENT_ARM_DISARM: ACCEPTED", 10)
                 mp.send("mode MANUAL")
                 _expect(mp, "Mode MANUAL", 10)
-                _wait(mp, 5.0)                     # on the bottom in PASSIVE, logging to RAM
+                _wait(mp, 2.5)                     # 5 s on the bottom in PASSIVE, logging to RAM
                 mp.send("disarm force")
                 _expect(mp, "DISARMED", 10)
-                _wait(mp, 6.0)                     # disarmed: the dive goes to flash
+                _wait(mp, 3.0)                     # 6 s disarmed: the dive goes to flash
                 mp.send("log list")
                 report["log_list"] = _expect(mp, "numLogs", 15)
                 mp.send("log download latest dive.BIN")
@@ -71,8 +71,11 @@ def test_mavproxy_modes_arming_parameters_mission_and_the_on_board_log(tmp_path)
         threading.Thread(target=session, daemon=True).start()
 
     # bottom-rest: the scripted operator arms, the vehicle sinks to the
-    # bottom 1 m down and rests there for as long as the session takes
-    Twin(Options(scenario="bottom-rest", radio="pty", speedup=1.0, duration=80.0), on_radio=on_radio).run()
+    # bottom 1 m down and rests there for as long as the session takes (the
+    # session ends the run). Twice real time: MAVProxy's own waits are in
+    # wall time, the radio's 57,600 baud and the vehicle's in simulated time
+    Twin(Options(scenario="bottom-rest", radio="pty", speedup=2.0, duration=200.0), on_radio=on_radio,
+         on_frame=lambda twin: done.is_set() and twin.stop()).run()
     assert done.wait(60)
     assert "error" not in report, report["error"]
     printed = report["printed"]

@@ -53,7 +53,8 @@ def test_the_whole_list_arrives_at_57600_baud_without_a_re_request():
 
         threading.Thread(target=talk, daemon=True).start()
 
-    Twin(Options(scenario="passive-drop", radio="pty", speedup=1.0, duration=16.0), on_radio=on_radio).run()
+    Twin(Options(scenario="passive-drop", radio="pty", speedup=1.0, duration=16.0), on_radio=on_radio,
+         on_frame=lambda twin: done.is_set() and twin.stop()).run()
     assert done.wait(30)
     assert "error" not in got, got["error"]
     names = [d[0] for d in PARAMS]

@@ -236,7 +236,8 @@ def test_attacks_on_the_firmware_in_the_twin_then_the_legitimate_ground():
     # real time: the board resets at 18 s, well after the first attacks (~10 s of
     # wall time), and runs long enough for the ground after the reset
     r = Twin(Options(scenario="bottom-rest", radio="pty", speedup=1.0, duration=38.0, key=PASSPHRASE,
-                     faults=[faults.parse("watchdog@18")]), on_radio=on_radio).run()
+                     faults=[faults.parse("watchdog@18")]), on_radio=on_radio,
+             on_frame=lambda twin: done.is_set() and twin.stop()).run()
     assert done.wait(60)
     if "error" in got:
         raise got["error"]

@@ -71,6 +71,15 @@ _GAP_US = const(25000)
 #: An IMU outage longer than this ends with the attitude levelled again
 #: from gravity (``Attitude.relevel``); a shorter one keeps it.
 _RELEVEL_US = const(1000000)
+#: The attitude stays valid while the IMU has been silent less than this: a
+#: planned stall (a flash save, up to 150 ms, announced) overflows the IMU's
+#: FIFO, and the read after it empties it, so the IMU is silent ~160 ms with
+#: nothing wrong; the attitude held over it is the vehicle's (the gyro's
+#: integration picks up after it). Dropping it there refused the operator's
+#: mode changes on the bottom at every log flush and parked the wings for a
+#: few control steps after a save in flight. A silent IMU still drops
+#: ``IMU_OK`` at its time-out; the failsafe confirms it over 200 ms.
+_ATT_HOLD_US = const(250000)
 #: A pressure older than this when its turn comes is not fused: the MS5837
 #: dates a sample at the middle of its conversion, ~8 ms before it is read
 #: in a steady loop; ~40 ms after a collection's stall.
@@ -195,6 +204,7 @@ class Estimator:
         self._lim_depth = timeouts_us[2] + _HALF
         self._lim_fix = timeouts_us[3] + _HALF
         self._lim_servo = int(servo_hold_s * 1e6) + _HALF
+        self._lim_att = max(timeouts_us[0], _ATT_HOLD_US) + _HALF
         # a magnetometer sample is fused when it was measured at least 7/8 of
         # ``mag_period_s`` after the last one fused (the firmware reads the
         # chip once a period: its time stamps jitter by a fraction of a step)
@@ -354,7 +364,8 @@ class Estimator:
         self._t_imu = t_us
         self._t_imu_seen = t_us
         att = self.att
-        if self._imu_lost and ((t_us - self._t_lost + _HALF) & _TMAX) - _HALF < _RELEVEL_US:
+        back = self._imu_lost
+        if back and ((t_us - self._t_lost + _HALF) & _TMAX) - _HALF < _RELEVEL_US:
             # back within a second (a flash save's stall emptied the FIFO):
             # the attitude held meanwhile is still good, the gyro's
             # integration picks up where it stopped
@@ -404,6 +415,8 @@ class Estimator:
                 P[0] = P[0] + e * e
             self.hor.predict(t_us, dt, R, w)
         self._outputs()
+        if back:
+            self._health(t_us)    # its flags back now, not at the next housekeeping (up to 100 ms)
 
     def check(self, t_us):
         """No IMU sample this step: re-evaluate the health flags against the
@@ -632,7 +645,8 @@ class Estimator:
         if self._servo_seen and ((t - self._t_servo) & _TMAX) < self._lim_servo:
             h |= _SERVOS_MOVING
         valid = 0
-        if h & _IMU_OK and not att.fast and self._tilt_var < self._tilt_var_max:
+        if self._started and ((t - self._t_imu_seen) & _TMAX) < self._lim_att and not att.fast \
+                and self._tilt_var < self._tilt_var_max:
             h |= _ATTITUDE_VALID
             valid = 1
         vert = self.vert

@@ -905,9 +905,21 @@ class Twin:
             settle += BOARD_FS_SETTLE_S
         return settle is not None and w.landed_at is not None and end >= w.landed_at + settle
 
+    def stop(self) -> None:
+        """End the run at the next frame, as its scenario's end does: for a
+        ground station on the radio (a test's, a script's) done with the
+        vehicle before ``Options.duration``. Any thread may call it."""
+        self._stop = True
+
     def _done(self, t: float) -> bool:
         """Whether the frame from ``t`` is the run's last (the world has
         computed it: ``world.t`` is its end)."""
+        if self._stop:
+            log.info("t=%.2f s: stopped by the ground station; the run ends at this frame", self.world.t)
+            if self.scenario_end_s is None:
+                self.scenario_end_s = round(self.world.t, 3)
+                self._scenario_wall = time.perf_counter() - self._wall0
+            return True
         if self.interrupted_at is not None:
             log.info("t=%.2f s: interrupted, the run stops at this frame (Ctrl-C again: at once)", self.world.t)
             return True
