@@ -51,7 +51,8 @@ NO_NUMBERS = frozenset((pm.MAVLINK_MSG_ID_HEARTBEAT, pm.MAVLINK_MSG_ID_PARAM_REQ
                         pm.MAVLINK_MSG_ID_MISSION_COUNT, pm.MAVLINK_MSG_ID_MISSION_CLEAR_ALL,
                         pm.MAVLINK_MSG_ID_MISSION_ACK, pm.MAVLINK_MSG_ID_MISSION_REQUEST_INT,
                         pm.MAVLINK_MSG_ID_LOG_REQUEST_LIST, pm.MAVLINK_MSG_ID_LOG_REQUEST_DATA,
-                        pm.MAVLINK_MSG_ID_LOG_ERASE, pm.MAVLINK_MSG_ID_LOG_REQUEST_END))
+                        pm.MAVLINK_MSG_ID_LOG_ERASE, pm.MAVLINK_MSG_ID_LOG_REQUEST_END,
+                        pm.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL))
 
 #: The parameters (1-7) each command reads; 5 and 6 are COMMAND_INT's x and y.
 READS = {

@@ -49,6 +49,8 @@ MESSAGES = (
     "LOG_REQUEST_LIST", "LOG_ENTRY", "LOG_REQUEST_DATA", "LOG_DATA", "LOG_ERASE", "LOG_REQUEST_END",
     # the standard modes protocol (issue 17), in development.xml only
     "AVAILABLE_MODES", "CURRENT_MODE",
+    # MAVLink FTP, answered with a refusal: no files served (shared/mavlink/ftp.py)
+    "FILE_TRANSFER_PROTOCOL",
 )
 
 #: Messages taken from ``development.xml`` (which includes common.xml): not

@@ -37,6 +37,9 @@ protocol's answer:
   ``SR_*`` rates);
 - ``signing.py``: SETUP_SIGNING;
 - the log protocol: ``logs`` (``firmware/flightlog/transfer.py``);
+- ``ftp.py``: FILE_TRANSFER_PROTOCOL, refused with the FTP protocol's NAK
+  (no files are served: a ground station that asks, as MAVProxy does for
+  the parameters, falls back at once instead of timing out);
 - here: HEARTBEATs from the ground refresh ``gcs_last_ms`` (the
   ground-silence failsafe reads it), TIMESYNC requests are answered,
   RADIO_STATUS is kept in ``radio`` ([rssi, remrssi, txbuf, noise,
@@ -83,7 +86,7 @@ from array import array
 
 from roboray.shared import modes as M
 from roboray.shared import quat
-from roboray.shared.mavlink import commands, mode_protocol, param_protocol, position_input, streams
+from roboray.shared.mavlink import commands, ftp, mode_protocol, param_protocol, position_input, streams
 from roboray.shared.mavlink import messages as msg
 from roboray.shared.mavlink.frame import Writer
 from roboray.shared.mavlink.mission import Mission
@@ -156,7 +159,7 @@ UNSIGNED_OK = (msg.MSG_RADIO_STATUS, 166)   # 166: RADIO (not in our table)
 REFUSAL_TEXT_MS = 10000
 _WHY = ("", "wrong key", "replayed or old", "far-future")   # Signing.reason
 
-#: AUTOPILOT_VERSION's capabilities: what the vehicle does.
+#: AUTOPILOT_VERSION's capabilities: what the vehicle does (not FTP: ``ftp.py`` serves no files).
 CAPABILITIES = (msg.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | msg.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | msg.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT | msg.MAV_PROTOCOL_CAPABILITY_MISSION_INT
                 | msg.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
@@ -912,6 +915,7 @@ HANDLERS = {
     msg.MSG_RADIO_STATUS: _radio_status,
     msg.MSG_SET_MODE: mode_protocol.handle_set_mode,
     msg.MSG_REQUEST_DATA_STREAM: streams.handle_request_data_stream,
+    msg.MSG_FILE_TRANSFER_PROTOCOL: ftp.handle,
 }
 for _mid in (msg.MSG_MISSION_ITEM, msg.MSG_MISSION_REQUEST, msg.MSG_MISSION_SET_CURRENT,
              msg.MSG_MISSION_REQUEST_LIST, msg.MSG_MISSION_COUNT, msg.MSG_MISSION_CLEAR_ALL,

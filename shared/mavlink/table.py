@@ -47,6 +47,7 @@ TABLE = {
     84: ("SET_POSITION_TARGET_LOCAL_NED", 143, 53, 53, _m.SET_POSITION_TARGET_LOCAL_NED_FMT, ("time_boot_ms", "x", "y", "z", "vx", "vy", "vz", "afx", "afy", "afz", "yaw", "yaw_rate", "type_mask", "target_system", "target_component", "coordinate_frame",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
     85: ("POSITION_TARGET_LOCAL_NED", 140, 51, 51, _m.POSITION_TARGET_LOCAL_NED_FMT, ("time_boot_ms", "x", "y", "z", "vx", "vy", "vz", "afx", "afy", "afz", "yaw", "yaw_rate", "type_mask", "coordinate_frame",), (0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,)),
     109: ("RADIO_STATUS", 185, 9, 9, _m.RADIO_STATUS_FMT, ("rxerrors", "fixed", "rssi", "remrssi", "txbuf", "noise", "remnoise",), (0, 0, 0, 0, 0, 0, 0,)),
+    110: ("FILE_TRANSFER_PROTOCOL", 84, 254, 254, _m.FILE_TRANSFER_PROTOCOL_FMT, ("target_network", "target_system", "target_component", "payload",), (0, 0, 0, 251,)),
     111: ("TIMESYNC", 34, 16, 16, _m.TIMESYNC_FMT, ("tc1", "ts1",), (0, 0,)),
     117: ("LOG_REQUEST_LIST", 128, 6, 6, _m.LOG_REQUEST_LIST_FMT, ("start", "end", "target_system", "target_component",), (0, 0, 0, 0,)),
     118: ("LOG_ENTRY", 56, 14, 14, _m.LOG_ENTRY_FMT, ("time_utc", "size", "id", "num_logs", "last_log_num",), (0, 0, 0, 0, 0,)),
