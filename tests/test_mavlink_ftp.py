@@ -70,7 +70,8 @@ def test_the_opcodes_and_error_codes_are_common_xml_s():
     # no files served: FTP is not claimed
     assert not CAPABILITIES & pm.MAV_PROTOCOL_CAPABILITY_FTP
     source = open(ftp.__file__).read()
-    for name, value in (("_OP_NONE", pm.MAV_FTP_OPCODE_NONE), ("_OP_TERMINATE_SESSION", pm.MAV_FTP_OPCODE_TERMINATESESSION),
+    for name, value in (("_OP_NONE", pm.MAV_FTP_OPCODE_NONE),
+                        ("_OP_TERMINATE_SESSION", pm.MAV_FTP_OPCODE_TERMINATESESSION),
                         ("_OP_RESET_SESSIONS", pm.MAV_FTP_OPCODE_RESETSESSION),
                         ("_OP_LIST_DIRECTORY", pm.MAV_FTP_OPCODE_LISTDIRECTORY),
                         ("_OP_READ_FILE", pm.MAV_FTP_OPCODE_READFILE), ("_OP_WRITE_FILE", pm.MAV_FTP_OPCODE_WRITEFILE),

@@ -3,10 +3,11 @@
 MAVProxy fetches parameters by FTP first (``@PARAM/param.pck``, at connect
 and on ``param fetch``) and falls back to PARAM_REQUEST_LIST only when the
 request fails. Unanswered, it sent OpenFileRO 11 times, a second apart,
-and printed ``FTP: request timed out``: ~11 s at every connect. RoboRay serves no
-files over MAVLink (the flight log goes by LOG_REQUEST_*, ``logs``), so
-every request gets the protocol's refusal at once, and MAVProxy reads a NAK
-to OpenFileRO as "open failed" and asks for the parameter list.
+and printed ``FTP: request timed out``: ~11 s at every connect. RoboRay
+serves no files over MAVLink (the flight log goes by LOG_REQUEST_*,
+``logs``), so every request gets the protocol's refusal at once, and
+MAVProxy reads a NAK to OpenFileRO as "open failed" and asks for the
+parameter list.
 AUTOPILOT_VERSION does not claim MAV_PROTOCOL_CAPABILITY_FTP.
 
 The answers follow the FTP specification (mavlink.io/en/services/ftp.html,
@@ -17,7 +18,8 @@ are common.xml's MAV_FTP_OPCODE and MAV_FTP_ERR:
   ACK with no data (the specification's answer; there is nothing to close);
 - TerminateSession, ReadFile, WriteFile, BurstReadFile: NAK InvalidSession,
   "session is not currently open": no session is ever opened (the
-  specification's ResetSessions is Terminate without its session check);
+  specification's source notes that ResetSessions is TerminateSession
+  without its check that the session exists);
 - the opcodes that name a path (ListDirectory, OpenFileRO, CreateFile,
   RemoveFile, CreateDirectory, RemoveDirectory, OpenFileWO, TruncateFile,
   Rename, CalcFileCRC32): NAK FileNotFound, no path names a file or a
