@@ -190,6 +190,7 @@ S_PREARM = const(0x10000000)
 SENSORS_PRESENT = S_GYRO | S_ACCEL | S_MAG | S_PRESSURE | S_VISION | S_MOTORS | S_AHRS | S_BATTERY | S_PREARM
 
 _ATT_DEPTH = nv.ATTITUDE_VALID | nv.DEPTH_VALID
+_ARM_ATTITUDE = nv.ATTITUDE_VALID | nv.IMU_OK
 _ALL_VALID = nv.ATTITUDE_VALID | nv.DEPTH_VALID | nv.POSITION_VALID
 # Conditions that clear at once (their own time-out or latch decides), the
 # rest are held for HOLD_MS so a sensor that fails now and then does not
@@ -595,7 +596,10 @@ class Failsafes:
         if (raw >> BATTERY) & 1:
             return M.LOW_BATTERY
         nav = self.nav
-        if not nav.valid(nv.ATTITUDE_VALID):
+        # the IMU live now, not only the attitude held over its last silence
+        # (valid for 250 ms after it, for a planned stall's sake): a dive
+        # does not start on an IMU that has just gone quiet
+        if not nav.valid(_ARM_ATTITUDE):
             return M.NO_ATTITUDE
         if not nav.valid(nv.DEPTH_VALID):
             self._say(msg.MAV_SEVERITY_WARNING, _PREARM_DEPTH)

@@ -127,6 +127,7 @@ _ROTATIONS = {
 }
 
 # Estimator.status bits the firmware reads
+IMU_OK = eh.IMU_OK
 ATTITUDE_VALID = eh.ATTITUDE_VALID
 DEPTH_VALID = eh.DEPTH_VALID
 POSITION_VALID = eh.POSITION_VALID
