@@ -416,7 +416,9 @@ class Estimator:
             self.hor.predict(t_us, dt, R, w)
         self._outputs()
         if back:
-            self._health(t_us)    # its flags back now, not at the next housekeeping (up to 100 ms)
+            # IMU_OK back now, not at the next housekeeping (up to 100 ms);
+            # the attitude was held valid over the silence
+            self.status[0] |= _IMU_OK
 
     def check(self, t_us):
         """No IMU sample this step: re-evaluate the health flags against the
