@@ -195,6 +195,33 @@ def test_telemetry_carries_the_state_the_firmware_fills():
     assert last["SYS_STATUS"].voltage_battery == 7400 and last["SYS_STATUS"].errors_count1 == 5
 
 
+def test_position_covariance_is_the_upper_triangle_with_the_variances_on_its_diagonal():
+    g = Ground()
+    v = Vehicle(g)
+    t = v.tel
+    t.pos_ned[0], t.pos_ned[1], t.pos_ned[2] = 1.5, -2.0, 3.5
+    t.vel_ned[2] = 0.12
+    t.var_ned[0], t.var_ned[1], t.var_ned[2], t.var_ned[3] = 0.25, 0.5, 0.01, 0.02
+    t.var_dz[0], t.var_dz[1] = 0.0004, 0.0009
+    msgs = []
+    for _ in range(250):
+        v.step()
+        msgs += g.received()
+    cov = [m for m in msgs if m.get_type() == "LOCAL_POSITION_NED_COV"]
+    assert cov, "no LOCAL_POSITION_NED_COV in 2.5 s"
+    m = cov[-1]
+    assert (m.x, m.y, m.z, m.vz) == pytest.approx((1.5, -2.0, 3.5, 0.12))
+    assert all(math.isnan(a) for a in (m.ax, m.ay, m.az))
+    assert m.estimator_type == pm.MAV_ESTIMATOR_TYPE_AUTOPILOT
+    # the 9x9's upper triangle row by row: row i starts at 9i - i(i-1)/2
+    diagonal = [9 * i - i * (i - 1) // 2 for i in range(9)]
+    assert diagonal == [0, 9, 17, 24, 30, 35, 39, 42, 44]
+    c = m.covariance
+    assert [c[k] for k in diagonal[:6]] == pytest.approx([0.25, 0.5, 0.0004, 0.01, 0.02, 0.0009])
+    assert all(math.isnan(c[k]) for k in diagonal[6:])      # accelerations: not estimated
+    assert all(c[k] == 0.0 for k in range(45) if k not in diagonal)
+
+
 def test_status_carries_the_loop_load_and_the_worst_slot_since_the_last_report():
     g = Ground()
     v = Vehicle(g)
