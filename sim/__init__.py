@@ -14,6 +14,13 @@ _os.environ.setdefault("NUMBA_CACHE_DIR", _os.path.join(
     _os.environ.get("ROBORAY_CACHE") or _os.path.join(
         _os.environ.get("XDG_CACHE_HOME") or _os.path.expanduser("~/.cache"), "roboray"),
     "numba"))
+# In it, a folder named by the kernels' sources, not by where they sit: a
+# fresh clone or another install of the same source loads them instead of
+# compiling them again (sim/numba_cache.py).
+_os.environ.setdefault("NUMBA_CACHE_LOCATOR_CLASSES", ",".join([
+    "roboray.sim.numba_cache.SourcesLocator", "UserProvidedCacheLocator", "InTreeCacheLocator",
+    "UserWideCacheLocator", "IPythonCacheLocator", "ZipCacheLocator"]))
 _numba = __import__("sys").modules.get("numba")
-if _numba is not None:   # imported before us: tell it too (it reads the variable once)
+if _numba is not None:   # imported before us: tell it too (it reads the variables once)
     _numba.config.CACHE_DIR = _os.environ["NUMBA_CACHE_DIR"]
+    _numba.config.CACHE_LOCATOR_CLASSES = _os.environ["NUMBA_CACHE_LOCATOR_CLASSES"]
