@@ -140,6 +140,12 @@ LINK_BUDGET_US = 3000
 #: 2.4 ms; its flushes are planned stalls, announced): its budget (a
 #: budget under its maximum let a long call end a slot past 10 ms).
 LOG_COST_US = 2500
+#: The CPU clock the budgets above were measured at (MHz, the Pico 2's).
+#: A board clocked slower takes longer for the same work: the budgets
+#: scale with ``machine.freq()``. Unscaled at 125 MHz, the log (3.2 ms
+#: there) was let into a slot on its 2.5 ms budget and ended it 9.8 ms in
+#: (an overrun on the emulated RP2350, bench board --cpu-mhz 125).
+BUDGET_MHZ = 150
 GC_PHASE = 9
 #: What a collection may take on a Pico 2 (measured 42 ms for the firmware
 #: alone, up to 76 ms in the twin, whose own objects share the heap), with
@@ -186,6 +192,14 @@ def _impl():
     import sys
     i = sys.implementation
     return "%s %d.%d" % ("MicroPython" if i.name == "micropython" else i.name, i.version[0], i.version[1])
+
+
+def clock_mhz(machine):
+    """The CPU's clock in MHz (``machine.freq()``); BUDGET_MHZ where the port cannot say."""
+    freq = getattr(machine, "freq", None)
+    hz = freq() if freq is not None else 0
+    mhz = (hz + 500000) // 1000000 if isinstance(hz, int) else 0
+    return mhz if mhz > 0 else BUDGET_MHZ
 
 
 def reset_cause_word(machine, cause):
@@ -375,11 +389,12 @@ class Vehicle:
         s.add("leak", self.leak.update, LEAK_MS, phase=3)
         s.add("battery", self.battery.update, BATTERY_MS, phase=5)
         s.add("params", self.store.service, PARAMS_MS, phase=7)
-        s.add("link", self.link.step, RADIO_MS, budget_us=LINK_BUDGET_US)
+        mhz = clock_mhz(self.machine)
+        s.add("link", self.link.step, RADIO_MS, budget_us=LINK_BUDGET_US * BUDGET_MHZ // mhz)
         # the log in the odd slots, away from the controller's even ones, on
         # a budget of its longest call: a slot that nav, depth and the radio
         # filled passes it to the next
-        s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_COST_US)
+        s.add("log", self.log_step, LOG_MS, phase=1, budget_us=LOG_COST_US * BUDGET_MHZ // mhz)
         # Which MicroPython this is decides when the loop collects (see the
         # module docstring). Stock: every GC_MS, announced as the stall it
         # is, in a slot with nav only; collector.collect, not a method of

@@ -59,6 +59,23 @@ def test_the_loop_runs_eight_tasks_and_the_estimator_settles_at_rest(mp):
     assert mp.eval("v.sched.overruns") == 0 and mp.eval("sum(v.sched.task_errors)") == 0
 
 
+def test_the_budgets_of_the_radio_and_the_log_follow_the_cpu_clock(mp):
+    # measured at the Pico 2's 150 MHz; at 125 MHz the same work takes 1.2x
+    # as long, and the log let in on its 150 MHz budget overran a slot
+    def budgets():
+        twin.reset(mp)
+        bench.build(mp, PARAMS)
+        return mp.eval("[v.sched._budget[v.sched.names.index(n)] for n in ('link', 'log')]")
+
+    assert budgets() == [app.LINK_BUDGET_US, app.LOG_COST_US]
+    mp.exec("import machine\nmachine.set_boot_freq(125000000)")
+    try:
+        assert mp.eval("machine.freq()") == 125000000
+        assert budgets() == [app.LINK_BUDGET_US * 6 // 5, app.LOG_COST_US * 6 // 5]
+    finally:
+        mp.exec("machine.set_boot_freq(150000000)")
+
+
 def test_arming_waits_for_the_estimator_and_lands_in_passive(mp):
     bench.build(mp, PARAMS)
     mp.exec("v.sched.run(100)")

@@ -325,6 +325,8 @@ def _board_time(config):
         return None
     bt = boardtime.BoardTime(config["source"], config.get("model"), config.get("cpu_mhz", boardtime.REF_MHZ),
                              config.get("ps_per_insn"), config.get("heap", False))
+    # the firmware reads the clock it runs at (its tasks' budgets scale with it)
+    machine.set_boot_freq(int(bt.cpu_mhz * 1000000 + 0.5))
     if bt.source == "emu":
         boardtime.bracket_emulation(machine, bt)
     global _bt, _run_loop

@@ -66,6 +66,7 @@ _LED_PIN = const(25)
 _UNSET = const(255)
 _UNDRIVEN = const(2)
 _SYS_FREQ = const(150000000)
+_boot_freq = _SYS_FREQ       # set_boot_freq()
 _WDT_MAX_MS = const(16777)   # RP2350: 24-bit counter at 1 tick/us
 _PWM_MIN_HZ = const(9)       # 150 MHz / (256 * 65536) rounded up
 _UART_DEFAULT_BUF = const(256)
@@ -799,6 +800,15 @@ def freq(hz=None):
     return None
 
 
+def set_boot_freq(hz):
+    """The CPU clock the board comes up at, from now and after every reset
+    (the twin's ``--cpu-mhz``: a board clocked other than the Pico 2's
+    150 MHz; ``freq()`` reports it, as the chip's does)."""
+    global _boot_freq
+    _boot_freq = int(hz)
+    twin.sys_freq = _boot_freq
+
+
 def idle():
     # Returns at the next interrupt: the 1 kHz tick at the latest.
     time.sleep_us(1000)
@@ -914,7 +924,7 @@ class _Twin:
         self.wdt_feeds = 0
         self._wdt_last = 0
         self.reset_cause = cause
-        self.sys_freq = _SYS_FREQ
+        self.sys_freq = _boot_freq
         if cause == PWRON_RESET:
             # the scratch registers live through a watchdog reset only
             for i in range(_SCRATCH_WORDS):
