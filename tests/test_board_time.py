@@ -67,7 +67,14 @@ def test_a_slower_clock_scales_the_compute_time():
     assert slow["board_time"]["tasks"]["nav"]["mean_us"] == 900
     assert slow["gc_ms_max"] == pytest.approx(3.0)
     assert slow["board_time"]["tasks"]["gc"]["calls"] > 30
-    assert slow["slot_p50_ms"] == pytest.approx(3 * fast["slot_p50_ms"], rel=0.02)
+    # every task's call costs three times as much (p99: the flash stalls of
+    # the dive-state and log saves do not scale). The slots' make-up is the
+    # firmware's choice: its radio and log budgets scale with the clock too
+    # (firmware/app.py), so at 50 MHz, 9 ms for the radio, they wait for a
+    # slot with room and run less often.
+    for name, t in fast["board_time"]["tasks"].items():
+        assert slow["board_time"]["tasks"][name]["p99_us"] == pytest.approx(3 * t["p99_us"]), name
+    assert slow["board_time"]["tasks"]["link"]["calls"] < fast["board_time"]["tasks"]["link"]["calls"] / 2
 
 
 def test_free_code_reports_no_loop_time():
