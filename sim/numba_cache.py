@@ -21,8 +21,8 @@ checks the file's hash, its own version and the CPU before it loads
 anything.
 
 ``sim/__init__.py`` names ``SourcesLocator`` first in
-``NUMBA_CACHE_LOCATOR_CLASSES`` (numba 0.68 reads it; a numba that does
-not caches as before); numba imports this module when the first
+``NUMBA_CACHE_LOCATOR_CLASSES`` (numba 0.62 and later read it; an older one
+ignores it and caches as before); numba imports this module when the first
 ``@njit(cache=True)`` is applied, so importing ``roboray.sim`` does not
 import numba. Kernels of other packages go on to numba's own locators.
 """
