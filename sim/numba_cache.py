@@ -46,8 +46,7 @@ def _module_file(name: str, root: str) -> str | None:
     """The source file of package module ``name`` (``roboray.sim.x.y``) under ``root``, if it exists."""
     if name != _PACKAGE and not name.startswith(_PACKAGE + "."):
         return None
-    parts = name.split(".")[2:]
-    base = os.path.join(root, *parts)
+    base = os.path.join(root, *name[len(_PACKAGE) + 1:].split(".")) if name != _PACKAGE else root
     for path in (base + ".py", os.path.join(base, "__init__.py")):
         if os.path.isfile(path):
             return path
